@@ -1,0 +1,92 @@
+"""Cache of total-derivative colorings, keyed by the model's structure.
+
+Computing the total coloring costs several full Jacobians (``../shared/FINDINGS.md``: about
+4 s of a 6 s low-fidelity solve). The sparsity depends only on the model's structure —
+fidelity, grid, which design variables are free, the mechanisms' topology and the code
+that builds the model — not on numbers (masses, road, design), so one coloring serves
+every study with the same structure. The key hashes exactly that structure, including
+the OpenMDAO/Dymos versions and a digest of suspopt's model-building source, so a code
+change never reuses a stale coloring.
+
+Location: ``$SUSPOPT_CACHE_DIR`` or ``~/.cache/suspopt/colorings`` (never a results folder).
+Files are written atomically, so parallel studies can share the cache.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import dymos
+import openmdao
+
+from suspopt.config import StudyConfig
+
+_MODEL_SOURCES = ('models', 'multibody/components.py', 'multibody/suspension.py',
+                  'problem.py', 'road.py', 'driver.py', 'cache.py')
+
+
+def cache_dir() -> Path:
+    root = os.environ.get('SUSPOPT_CACHE_DIR')
+    base = Path(root) if root else Path.home() / '.cache' / 'suspopt'
+    return base / 'colorings'
+
+
+def _source_digest() -> str:
+    pkg = Path(__file__).parent
+    h = hashlib.sha256()
+    for entry in _MODEL_SOURCES:
+        path = pkg / entry
+        files = sorted(path.rglob('*.py')) if path.is_dir() else [path]
+        for f in files:
+            h.update(f.relative_to(pkg).as_posix().encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def coloring_key(config: StudyConfig, fidelity: str, free_design: list[str]) -> str:
+    """Hex digest identifying the total-Jacobian structure of one problem."""
+    from suspopt.multibody.mechanism import load_mechanism
+    structure = {
+        'fidelity': fidelity,
+        'segments': config.transcription.segments,
+        'order': config.transcription.order,
+        'free_design': list(free_design),
+        'versions': [openmdao.__version__, dymos.__version__],
+        'source': _source_digest(),
+    }
+    if fidelity == 'mixed':
+        structure['mechanisms'] = [
+            load_mechanism(getattr(config.vehicle, axle).mechanism, suspension=True).structure()
+            for axle in ('front', 'rear')]
+    blob = json.dumps(structure, sort_keys=True, default=str).encode()
+    return hashlib.sha256(blob).hexdigest()[:32]
+
+
+def load(key: str):
+    """The cached :class:`~openmdao.utils.coloring.Coloring` for ``key``, or None."""
+    from openmdao.utils.coloring import Coloring
+    path = cache_dir() / f'{key}.pkl'
+    if not path.is_file():
+        return None
+    try:
+        return Coloring.load(str(path))
+    except Exception:  # unreadable or from an incompatible version: recompute
+        return None
+
+
+def store(key: str, coloring) -> Path | None:
+    """Save a coloring under ``key`` atomically; a read-only cache is silently skipped."""
+    directory = cache_dir()
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=directory, suffix='.tmp')
+        os.close(fd)
+        coloring.save(tmp)
+        path = directory / f'{key}.pkl'
+        os.replace(tmp, path)
+        return path
+    except OSError:
+        return None

@@ -1,0 +1,338 @@
+"""An OpenMDAO driver for IPOPT through cyipopt (paper §3.6).
+
+OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available here
+(``../shared/FINDINGS.md``), so this small driver wraps ``cyipopt`` directly:
+
+* design variables, bounds and constraints are passed in driver scaling (``ref``/``ref0``);
+* the constraint Jacobian is given to IPOPT as a sparse matrix whose structure is the
+  total-derivative coloring's sparsity; values come from one colored
+  ``compute_totals`` per iterate, always with the same ``of``/``wrt`` lists in the
+  driver's order, so they line up with the coloring;
+* the Hessian is approximated by IPOPT (limited-memory BFGS);
+* a model evaluation that fails (``AnalysisError``, non-finite values) is reported to IPOPT
+  as an evaluation error, so IPOPT backtracks instead of aborting;
+* every accepted iteration is reported to an optional ``progress`` callable
+  (iteration, objective, constraint violation, elapsed time) and kept in ``history``;
+* Ctrl-C (SIGINT) stops IPOPT at the end of the current iteration (a second Ctrl-C
+  interrupts at once), keeping what was computed;
+* the exit status is reported truthfully: ``run()`` returns ``fail=True`` unless IPOPT
+  reports ``Solve_Succeeded`` (0) or ``Solved_To_Acceptable_Level`` (1).
+"""
+from __future__ import annotations
+
+import math
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import cyipopt
+import numpy as np
+import openmdao.api as om
+from openmdao.core.driver import Driver, RecordingDebugging
+
+#: IPOPT's return statuses (IpReturnCodes.h).
+IPOPT_STATUS = {
+    0: 'Solve_Succeeded', 1: 'Solved_To_Acceptable_Level', 2: 'Infeasible_Problem_Detected',
+    3: 'Search_Direction_Becomes_Too_Small', 4: 'Diverging_Iterates',
+    5: 'User_Requested_Stop', 6: 'Feasible_Point_Found',
+    -1: 'Maximum_Iterations_Exceeded', -2: 'Restoration_Failed',
+    -3: 'Error_In_Step_Computation', -4: 'Maximum_CpuTime_Exceeded',
+    -5: 'Maximum_WallTime_Exceeded', -10: 'Not_Enough_Degrees_Of_Freedom',
+    -11: 'Invalid_Problem_Definition', -12: 'Invalid_Option',
+    -13: 'Invalid_Number_Detected', -100: 'Unrecoverable_Exception',
+    -101: 'NonIpopt_Exception_Thrown', -102: 'Insufficient_Memory', -199: 'Internal_Error',
+}
+_INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means "none"
+
+
+@dataclass
+class IterationInfo:
+    """One accepted IPOPT iteration, as reported to the progress callback."""
+
+    iteration: int
+    objective: float
+    constraint_violation: float
+    dual_infeasibility: float
+    elapsed_s: float
+    design: dict[str, float] = field(default_factory=dict)
+
+
+class IpoptDriver(Driver):
+    """Drive an OpenMDAO problem with IPOPT (cyipopt), using the sparse colored total Jacobian.
+
+    Options: ``max_iter``, ``tol``, ``print_level`` (IPOPT's own output, 0 = silent),
+    ``hessian_approximation``, ``progress`` (callable receiving :class:`IterationInfo`),
+    ``watch`` (design-variable names whose values are put in each :class:`IterationInfo`).
+    Further raw IPOPT options go in ``opt_settings``.
+    """
+
+    def __init__(self, **kwargs: Any):
+        super().__init__(**kwargs)
+        self.supports['optimization'] = True
+        self.supports['inequality_constraints'] = True
+        self.supports['equality_constraints'] = True
+        self.supports['two_sided_constraints'] = True
+        self.supports['linear_constraints'] = False
+        self.supports['simultaneous_derivatives'] = True
+        self.supports['total_jac_sparsity'] = True
+        self.supports['multiple_objectives'] = False
+        self.supports['active_set'] = False
+        self.supports['integer_design_vars'] = False
+        self.supports['distributed_design_vars'] = False
+        self.supports._read_only = True
+        self.opt_settings: dict[str, Any] = {}
+        self.history: list[IterationInfo] = []
+        self.status: int | None = None
+        self.status_message = ''
+        self.n_function_evals = 0
+        self.n_gradient_evals = 0
+        self.last_error: str | None = None
+        self._stop_requested = False
+
+    def _declare_options(self) -> None:
+        self.options.declare('max_iter', default=3000, types=int, lower=0)
+        self.options.declare('tol', default=1e-8, types=float, lower=0.0)
+        self.options.declare('print_level', default=0, types=int, lower=0, upper=12)
+        self.options.declare('hessian_approximation', default='limited-memory',
+                             values=('limited-memory', 'exact'))
+        self.options.declare('progress', default=None, allow_none=True,
+                             desc='callable(IterationInfo) called after every iteration')
+        self.options.declare('watch', default=(), types=(list, tuple),
+                             desc='design variables reported in IterationInfo.design')
+
+    def _get_name(self) -> str:
+        return 'IPOPT'
+
+    # ------------------------------------------------------------------ layout
+    def _layout(self) -> None:
+        self._of = self._get_ordered_nl_responses()
+        self._wrt = list(self._designvars)
+        if any(meta.get('linear') for meta in self._cons.values()):
+            raise RuntimeError(f'{self.msginfo}: linear constraints are not supported')
+        obj_vals = self.get_objective_values()
+        con_vals = self.get_constraint_values(lintype='nonlinear')
+        sizes = {**{k: np.size(v) for k, v in obj_vals.items()},
+                 **{k: np.size(v) for k, v in con_vals.items()}}
+        self._con_names = [n for n in self._of if n in self._cons]
+        self._con_sizes = [sizes[n] for n in self._con_names]
+        self._n_obj = sizes[self._of[0]]
+        dv = self.get_design_var_values()
+        self._dv_sizes = [np.size(dv[n]) for n in self._wrt]
+        self.n = int(sum(self._dv_sizes))
+        self.m = int(sum(self._con_sizes))
+
+        bounds = self._autoscaler.get_bounds_scaling('design_var')
+        lb, ub = [], []
+        for name, size in zip(self._wrt, self._dv_sizes):
+            lo, up = bounds[name].lower, bounds[name].upper
+            lb.append(np.broadcast_to(-_INF if lo is None else lo, (size,)))
+            ub.append(np.broadcast_to(_INF if up is None else up, (size,)))
+        self._lb = np.clip(np.concatenate(lb), -_INF, _INF)
+        self._ub = np.clip(np.concatenate(ub), -_INF, _INF)
+
+        cbounds = self._autoscaler.get_bounds_scaling('constraint')
+        cl, cu = [], []
+        for name, size in zip(self._con_names, self._con_sizes):
+            b = cbounds[name]
+            if b.equals is not None:
+                cl.append(np.broadcast_to(b.equals, (size,)))
+                cu.append(np.broadcast_to(b.equals, (size,)))
+            else:
+                cl.append(np.broadcast_to(-_INF if b.lower is None else b.lower, (size,)))
+                cu.append(np.broadcast_to(_INF if b.upper is None else b.upper, (size,)))
+        self._cl = np.clip(np.concatenate(cl), -_INF, _INF) if cl else np.zeros(0)
+        self._cu = np.clip(np.concatenate(cu), -_INF, _INF) if cu else np.zeros(0)
+
+    def _sparsity(self, coloring) -> tuple[np.ndarray, np.ndarray]:
+        """Constraint-Jacobian structure (rows, cols) in IPOPT's layout."""
+        if coloring is not None:
+            if tuple(coloring._shape) != (self._n_obj + self.m, self.n):
+                raise RuntimeError(f'{self.msginfo}: total coloring shape {coloring._shape} '
+                                   f'does not match the problem ({self._n_obj + self.m}, '
+                                   f'{self.n}); the cached coloring is stale')
+            rows, cols = coloring._nzrows, coloring._nzcols
+            keep = rows >= self._n_obj
+            return rows[keep] - self._n_obj, cols[keep]
+        rows, cols = np.nonzero(np.ones((self.m, self.n), dtype=bool))
+        return rows, cols
+
+    # ------------------------------------------------------------------ evaluations
+    def _x(self) -> np.ndarray:
+        dv = self.get_design_var_values()
+        return np.concatenate([np.ravel(dv[n]) for n in self._wrt])
+
+    def _evaluate(self, x: np.ndarray) -> None:
+        """Run the model at x (driver-scaled) unless it was the last point run."""
+        if self._x_run is not None and np.array_equal(x, self._x_run):
+            if self._eval_failed:
+                raise cyipopt.CyIpoptEvaluationError()
+            return
+        self._x_run = x.copy()
+        self._x_jac = None
+        self._eval_failed = False
+        model = self._problem().model
+        self._vectors['design_var'].set_data(x, driver_scaling=True)
+        self._set_design_vars(driver_scaling=True)
+        self.n_function_evals += 1
+        with RecordingDebugging(self._get_name(), self.iter_count, self):
+            self.iter_count += 1
+            try:
+                with model._relevance.nonlinear_active('iter'):
+                    self._run_solve_nonlinear()
+            except om.AnalysisError as err:
+                self.last_error = str(err)
+                self._eval_failed = True
+        if not self._eval_failed:
+            obj = np.concatenate([np.ravel(v) for v in
+                                  self.get_objective_values(driver_scaling=True).values()])
+            cons = self.get_constraint_values(lintype='nonlinear', driver_scaling=True)
+            con = (np.concatenate([np.ravel(cons[n]) for n in self._con_names])
+                   if self._con_names else np.zeros(0))
+            if not (np.all(np.isfinite(obj)) and np.all(np.isfinite(con))):
+                self.last_error = 'the model returned NaN or inf'
+                self._eval_failed = True
+            else:
+                self._f, self._g = float(obj[0]), con
+        if self._eval_failed:
+            raise cyipopt.CyIpoptEvaluationError()
+
+    def _jacobian_values(self, x: np.ndarray) -> None:
+        self._evaluate(x)
+        if self._x_jac is not None and np.array_equal(x, self._x_jac):
+            return
+        self.n_gradient_evals += 1
+        try:
+            J = self._compute_totals(of=self._of, wrt=self._wrt, return_format='array')
+        except om.AnalysisError as err:
+            self.last_error = str(err)
+            raise cyipopt.CyIpoptEvaluationError() from None
+        if not np.all(np.isfinite(J)):
+            self.last_error = 'the total derivatives contain NaN or inf'
+            raise cyipopt.CyIpoptEvaluationError()
+        self._grad = np.array(J[0, :])
+        self._jac = np.array(J[self._n_obj + self._jrows, self._jcols])
+        self._x_jac = x.copy()
+
+    # cyipopt callbacks
+    def objective(self, x: np.ndarray) -> float:
+        self._evaluate(x)
+        return self._f
+
+    def constraints(self, x: np.ndarray) -> np.ndarray:
+        self._evaluate(x)
+        return self._g
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        self._jacobian_values(x)
+        return self._grad
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        self._jacobian_values(x)
+        return self._jac
+
+    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._jrows, self._jcols
+
+    def intermediate(self, alg_mod, iter_count, obj_value, inf_pr, inf_du, mu, d_norm,
+                     regularization_size, alpha_du, alpha_pr, ls_trials) -> bool:
+        info = IterationInfo(iteration=int(iter_count), objective=float(obj_value),
+                             constraint_violation=float(inf_pr),
+                             dual_infeasibility=float(inf_du),
+                             elapsed_s=time.perf_counter() - self._t0)
+        watch = self.options['watch']
+        if watch:
+            try:
+                it = self._nlp.get_current_iterate(scaled=False)
+                x = np.asarray(it['x'])
+            except Exception:  # not available during restoration
+                x = self._x_run
+            if x is not None:
+                info.design = self._unscaled_design(x, watch)
+        self.history.append(info)
+        if self.options['progress'] is not None:
+            self.options['progress'](info)
+        return not self._stop_requested
+
+    def _unscaled_design(self, x: np.ndarray, names) -> dict[str, float]:
+        """Physical values of the watched (scalar) design variables at driver-scaled x."""
+        out, start = {}, 0
+        for name, size in zip(self._wrt, self._dv_sizes):
+            if name in names:
+                meta = self._designvars[name]
+                scaler = 1.0 if meta['total_scaler'] is None else meta['total_scaler']
+                adder = 0.0 if meta['total_adder'] is None else meta['total_adder']
+                out[name] = float(np.ravel(x[start:start + size] / scaler - adder)[0])
+            start += size
+        return out
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> bool:
+        """Solve with IPOPT. Returns the failure flag (OpenMDAO's convention)."""
+        self.result.reset()
+        problem = self._problem()
+        self.iter_count = 0
+        self._total_jac = None
+        self._x_run = self._x_jac = None
+        self._eval_failed = False
+        self.history = []
+        self.status, self.status_message, self.last_error = None, '', None
+        self.n_function_evals = self.n_gradient_evals = 0
+        self._stop_requested = False
+        self._check_for_missing_objective()
+        self._t0 = time.perf_counter()
+
+        with RecordingDebugging(self._get_name(), self.iter_count, self):
+            self._run_solve_nonlinear()
+        self.iter_count += 1
+        self._layout()
+        coloring = problem.get_total_coloring(self._coloring_info, run_model=False)
+        self._jrows, self._jcols = self._sparsity(coloring)
+
+        self._nlp = nlp = cyipopt.Problem(n=self.n, m=self.m, problem_obj=self,
+                                          lb=self._lb, ub=self._ub, cl=self._cl, cu=self._cu)
+        nlp.add_option('hessian_approximation', self.options['hessian_approximation'])
+        nlp.add_option('max_iter', self.options['max_iter'])
+        nlp.add_option('tol', self.options['tol'])
+        nlp.add_option('print_level', self.options['print_level'])
+        nlp.add_option('sb', 'yes')
+        for key, val in self.opt_settings.items():
+            nlp.add_option(key, val)
+
+        previous = signal.getsignal(signal.SIGINT)
+
+        def on_sigint(signum, frame):
+            if self._stop_requested:
+                raise KeyboardInterrupt
+            self._stop_requested = True
+            print('\nInterrupt: stopping IPOPT after this iteration (Ctrl-C again to abort).',
+                  file=sys.stderr)
+
+        try:
+            signal.signal(signal.SIGINT, on_sigint)
+        except ValueError:  # not in the main thread
+            previous = None
+        x0 = self._x()
+        try:
+            x, info = nlp.solve(x0)
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+            nlp.close()
+            self._nlp = None
+        self.status = int(info['status'])
+        self.status_message = IPOPT_STATUS.get(self.status,
+                                               info['status_msg'].decode(errors='replace'))
+
+        # leave the model at IPOPT's final point and record it
+        self._x_run = None
+        try:
+            self._evaluate(np.asarray(x))
+        except cyipopt.CyIpoptEvaluationError:
+            pass
+        return self.status not in (0, 1)
+
+    def _update_result(self, result) -> None:
+        result.exit_status = self.status_message
+        result.success = self.status in (0, 1)

@@ -1,0 +1,304 @@
+"""Transcription of a vehicle model into one NLP (paper §3.4-3.6, eq. 14; SPEC §5-§6).
+
+:class:`VehicleProblem` builds, from a :class:`~suspopt.config.StudyConfig`, a Dymos
+Radau pseudospectral phase around :class:`~suspopt.models.vehicle.HalfCarODE` or
+:class:`~suspopt.models.vehicle.MixedFidelityODE`, with
+
+* states ``z_C, v_C, theta_C, omega_C, z_W1, v_W1, z_W2, v_W2`` from the zero initial
+  state, and ``J`` (the four objective integrals, rate ``dJ_dt``) from zero;
+* the design variables as Dymos parameters scaled to [0, 1] by their bounds
+  (ref0 = lower, ref = upper), the car's constants as fixed parameters;
+* the objective ``f = Σ w_k J_k(T) / s_k`` computed after the phase;
+* :class:`~suspopt.driver.IpoptDriver` solving states and design together with the
+  colored sparse total Jacobian; the coloring is cached by model structure
+  (:mod:`suspopt.cache`).
+
+With ``optimize_design=False`` the design is held fixed and IPOPT only solves the
+collocation equations: this is how one design is *evaluated* by collocation.
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import dymos as dm
+import numpy as np
+import openmdao.api as om
+
+from suspopt import cache
+from suspopt.config import DESIGN_NAMES, StudyConfig
+from suspopt.driver import IpoptDriver, IterationInfo
+from suspopt.errors import ModelError
+from suspopt.models.objective import WeightedObjectiveComp
+from suspopt.models.vehicle import HalfCarODE, MixedFidelityODE
+from suspopt.multibody.suspension import SuspensionModule
+from suspopt.timemarching import Trajectory
+
+FIDELITIES = ('low', 'mixed')
+
+#: (state, rate source, units) of the transcription, paper eq. 2 and SPEC §5.
+STATE_DEFS = (
+    ('z_C', 'v_C', 'm'), ('v_C', 'zdd_C', 'm/s'),
+    ('theta_C', 'omega_C', 'rad'), ('omega_C', 'thdd_C', 'rad/s'),
+    ('z_W1', 'v_W1', 'm'), ('v_W1', 'zdd_W1', 'm/s'),
+    ('z_W2', 'v_W2', 'm'), ('v_W2', 'zdd_W2', 'm/s'),
+)
+DESIGN_UNITS = {'k_S1': 'N/m', 'k_S2': 'N/m', 'c_S1': 'N*s/m', 'c_S2': 'N*s/m'}
+#: signals added to the timeseries (beyond the states), per fidelity
+TIMESERIES = {
+    'low': ('zdd_C', 'thdd_C', 'zdd_W1', 'zdd_W2', 'F_S1', 'F_S2', 'F_T1', 'F_T2',
+            'delta_1', 'delta_2'),
+    'mixed': ('zdd_C', 'thdd_C', 'zdd_W1', 'zdd_W2', 'F_S1', 'F_S2', 'F_T1', 'F_T2',
+              'delta_1', 'delta_2', 'q_U1', 'q_U2', 'q_W1', 'q_W2',
+              'reactions_1', 'reactions_2'),
+}
+
+
+def vehicle_parameters(config: StudyConfig, fidelity: str) -> dict[str, tuple[float, str]]:
+    """The car's constants as (value, units) by ODE input name (SPEC §2)."""
+    v = config.vehicle
+    params = {'M': (v.chassis_mass, 'kg'), 'I': (v.chassis_pitch_inertia, 'kg*m**2'),
+              'a1': (v.front.axle_position, 'm'), 'a2': (v.rear.axle_position, 'm'),
+              'k_T1': (v.front.tyre_stiffness, 'N/m'), 'k_T2': (v.rear.tyre_stiffness, 'N/m')}
+    if fidelity == 'low':
+        params.update(m1=(v.front.wheel_mass, 'kg'), m2=(v.rear.wheel_mass, 'kg'))
+    return params
+
+
+@dataclass
+class SolveResult:
+    """What one IPOPT solve produced."""
+
+    fidelity: str
+    design: dict[str, float]
+    objective: float
+    terms: list[float]
+    scales: list[float]
+    success: bool
+    status: str
+    iterations: int
+    function_evaluations: int
+    gradient_evaluations: int
+    times: dict[str, float]
+    multibody_calls: dict[str, int] = field(default_factory=dict)
+    coloring_from_cache: bool = False
+    history: list[IterationInfo] = field(default_factory=list)
+    message: str = ''
+
+
+class VehicleProblem:
+    """A set-up Dymos problem of one fidelity for one study description.
+
+    Parameters
+    ----------
+    config : the study description.
+    fidelity : ``'low'`` (half car) or ``'mixed'`` (half car + multibody modules).
+    scales : normalization ``s_k`` of the four objective terms.
+    optimize_design : False holds the design fixed (evaluation by collocation).
+    recorder : path of an SQLite case recorder, or None.
+    progress : callable receiving an :class:`IterationInfo` after every IPOPT iteration.
+    use_cache : reuse/save the total coloring in the coloring cache.
+    """
+
+    def __init__(self, config: StudyConfig, fidelity: str, scales: tuple[float, ...],
+                 *, optimize_design: bool = True, recorder: str | Path | None = None,
+                 progress: Callable[[IterationInfo], None] | None = None,
+                 use_cache: bool = True):
+        if fidelity not in FIDELITIES:
+            raise ValueError(f"fidelity must be one of {FIDELITIES}, got {fidelity!r}")
+        t0 = time.perf_counter()
+        self.config, self.fidelity = config, fidelity
+        self.scales = tuple(float(s) for s in scales)
+        self.optimize_design = optimize_design
+        self.opt_names = [n for n in DESIGN_NAMES
+                          if optimize_design and getattr(config.design, n).optimize]
+        self._work_dir = tempfile.mkdtemp(prefix='suspopt-om-')
+        v, tr = config.vehicle, config.transcription
+        self.modules: tuple[SuspensionModule, ...] = ()
+        ode_kwargs: dict[str, Any] = {'road': config.road_profile(),
+                                      'speed': float(config.maneuver.speed),
+                                      'wheelbase': float(v.wheelbase)}
+        if fidelity == 'mixed':
+            self.modules = (SuspensionModule(v.front.mechanism),
+                            SuspensionModule(v.rear.mechanism))
+            ode_kwargs.update(modules=self.modules, fd_form=config.multibody.fd_form,
+                              fd_step=config.multibody.fd_step)
+        ode_class = HalfCarODE if fidelity == 'low' else MixedFidelityODE
+
+        p = self.problem = om.Problem(reports=False, work_dir=self._work_dir)
+        phase = self.phase = dm.Phase(
+            ode_class=ode_class, ode_init_kwargs=ode_kwargs,
+            transcription=dm.Radau(num_segments=tr.segments, order=tr.order, compressed=True))
+        phase.set_time_options(fix_initial=True, fix_duration=True, units='s',
+                               targets=['time'])
+        for name, rate, units in STATE_DEFS:
+            phase.add_state(name, rate_source=rate, units=units, fix_initial=True,
+                            targets=[name])
+        phase.add_state('J', rate_source='dJ_dt', shape=(4,), units=None, fix_initial=True,
+                        targets=[], ref=np.asarray(self.scales), defect_ref=np.asarray(self.scales))
+        for name in DESIGN_NAMES:
+            dv = getattr(config.design, name)
+            opt = name in self.opt_names
+            phase.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[name], opt=opt,
+                                lower=dv.lower if opt else None,
+                                upper=dv.upper if opt else None,
+                                ref0=dv.lower if opt else None, ref=dv.upper if opt else None,
+                                static_target=True, targets=[name])
+        for name, (val, units) in vehicle_parameters(config, fidelity).items():
+            phase.add_parameter(name, val=val, units=units, opt=False, static_target=True,
+                                targets=[name])
+        for name in TIMESERIES[fidelity]:
+            phase.add_timeseries_output(name)
+        p.model.add_subsystem('phase', phase)
+        p.model.add_subsystem('objective', WeightedObjectiveComp())
+        p.model.connect('phase.timeseries.J', 'objective.J', src_indices=om.slicer[-1, :])
+        p.model.add_objective('objective.f')
+
+        drv = self.driver = p.driver = IpoptDriver()
+        opt = config.optimizer
+        drv.options['max_iter'] = opt.max_iter
+        drv.options['tol'] = opt.tol
+        drv.options['print_level'] = opt.print_level
+        drv.options['progress'] = progress
+        drv.options['watch'] = [f'phase.parameters:{n}' for n in self.opt_names]
+        drv.opt_settings.update(opt.options)
+        self.cache_key = cache.coloring_key(config, fidelity, self.opt_names)
+        self.use_cache = use_cache
+        self._cached_coloring = cache.load(self.cache_key) if use_cache else None
+        self.coloring_from_cache = self._cached_coloring is not None
+        if self._cached_coloring is not None:
+            drv.use_fixed_coloring(self._cached_coloring)
+        else:
+            # one Jacobian with randomized partials (declared sparsity) detects the sparsity
+            drv.declare_coloring(num_full_jacs=1, show_summary=False, show_sparsity=False)
+
+        self.recorder_path = None
+        if recorder is not None:
+            self.recorder_path = Path(recorder).resolve()
+            rec = om.SqliteRecorder(str(self.recorder_path), record_viewer_data=False)
+            drv.add_recorder(rec)
+            drv.recording_options['record_desvars'] = False
+            drv.recording_options['record_constraints'] = False
+            drv.recording_options['record_objectives'] = True
+            drv.recording_options['includes'] = [f'phase.parameters:{n}' for n in DESIGN_NAMES]
+            p.add_recorder(rec)
+            p.recording_options['includes'] = ['*']
+
+        p.setup(mode='fwd', check=False)
+        p.set_val('objective.weights', np.asarray(config.objective.weights))
+        p.set_val('objective.scales', np.asarray(self.scales))
+        phase.set_time_val(initial=0.0, duration=config.maneuver.horizon)
+        p.final_setup()
+        self.times = {'setup_s': time.perf_counter() - t0}
+
+    # ---------------------------------------------------------------- values
+    def set_design(self, design: dict[str, float]) -> None:
+        """Set the design (all four values) as the starting point / fixed design."""
+        for name in DESIGN_NAMES:
+            self.problem.set_val(f'phase.parameters:{name}', float(design[name]),
+                                 units=DESIGN_UNITS[name])
+
+    def design(self) -> dict[str, float]:
+        return {n: float(self.problem.get_val(f'phase.parameters:{n}',
+                                              units=DESIGN_UNITS[n])[0]) for n in DESIGN_NAMES}
+
+    def set_initial_guess(self, traj: Trajectory | None) -> None:
+        """Initialize the discretized states from a trajectory (or zeros)."""
+        for name, _, _ in STATE_DEFS:
+            vals = np.zeros(2) if traj is None else traj[name]
+            t = np.array([0.0, self.config.maneuver.horizon]) if traj is None else traj.t
+            self.phase.set_state_val(name, vals, time_vals=t)
+        J = np.zeros((2, 4)) if traj is None else np.stack(
+            [traj[f'J{k}'] for k in range(1, 5)], axis=1)
+        t = np.array([0.0, self.config.maneuver.horizon]) if traj is None else traj.t
+        self.phase.set_state_val('J', J, time_vals=t)
+
+    def terms(self) -> np.ndarray:
+        return np.array(self.problem.get_val('objective.J'))
+
+    def objective(self) -> float:
+        return float(self.problem.get_val('objective.f')[0])
+
+    def timeseries(self) -> Trajectory:
+        """The collocation solution at the nodes, with the time-marching signal names."""
+        p = self.problem
+        ts = 'phase.timeseries.'
+        t = p.get_val(ts + 'time')[:, 0]
+        values = {name: p.get_val(ts + name)[:, 0] for name, _, _ in STATE_DEFS}
+        for name in TIMESERIES[self.fidelity]:
+            val = p.get_val(ts + name)
+            values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
+        J = p.get_val(ts + 'J')
+        for k in range(4):
+            values[f'J{k + 1}'] = J[:, k]
+        wheel = 'z_W' if self.fidelity == 'low' else 'q_W'
+        values['wheel_z1'], values['wheel_z2'] = values[wheel + '1'], values[wheel + '2']
+        info = {'fidelity': self.fidelity, 'method': 'collocation'}
+        if self.fidelity == 'mixed':
+            info['max_constraint_residual_m'] = max(
+                m.constraint_residual(m.kinematics(values[f'z_W{i + 1}'],
+                                                   values[f'v_W{i + 1}']).state)
+                for i, m in enumerate(self.modules))
+        return Trajectory(t=t, values=values, J=J[-1].copy(), info=info)
+
+    def multibody_calls(self) -> dict[str, int]:
+        """Batched multibody solver calls so far (position analyses, augmented solves)."""
+        out: dict[str, int] = {}
+        for m in self.modules:
+            for k, v in m.solver.calls.items():
+                out[k] = out.get(k, 0) + v
+        return out
+
+    # ---------------------------------------------------------------- solve
+    def solve(self) -> SolveResult:
+        """Run IPOPT (optimization, or the collocation solve of a fixed design)."""
+        p, drv = self.problem, self.driver
+        t0 = time.perf_counter()
+        try:
+            p.run_model()
+        except om.AnalysisError as err:
+            raise ModelError(f'model evaluation failed at the starting point: {err}') from None
+        t1 = time.perf_counter()
+        coloring = p.get_total_coloring(drv._coloring_info, run_model=False)
+        t2 = time.perf_counter()
+        if self._cached_coloring is None and coloring is not None:
+            # keep it for the next solves of this problem, and for other problems
+            self._cached_coloring = coloring
+            drv.use_fixed_coloring(coloring)
+            if self.use_cache:
+                cache.store(self.cache_key, coloring)
+        p.run_driver()
+        t3 = time.perf_counter()
+        if self.recorder_path is not None:
+            p.record('final')
+        terms = self.terms()
+        success = drv.status in (0, 1)
+        times = dict(self.times, coloring_s=t2 - t1, solve_s=t3 - t2 + (t1 - t0))
+        msg = drv.status_message
+        if drv.last_error and not success:
+            msg += f' (last model error: {drv.last_error})'
+        return SolveResult(
+            fidelity=self.fidelity, design=self.design(), objective=self.objective(),
+            terms=terms.tolist(), scales=list(self.scales), success=success,
+            status=drv.status_message, iterations=len(drv.history) - 1 if drv.history else 0,
+            function_evaluations=drv.n_function_evals,
+            gradient_evaluations=drv.n_gradient_evals, times=times,
+            multibody_calls=self.multibody_calls(),
+            coloring_from_cache=self.coloring_from_cache, history=list(drv.history), message=msg)
+
+    def cleanup(self) -> None:
+        """Close the recorder and remove OpenMDAO's scratch directory."""
+        try:
+            self.problem.cleanup()
+        finally:
+            shutil.rmtree(self._work_dir, ignore_errors=True)
+
+    def __enter__(self) -> 'VehicleProblem':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.cleanup()

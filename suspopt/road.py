@@ -1,0 +1,371 @@
+"""Road profiles and the road-input component (SPEC §4, paper Figure 3).
+
+A road profile is a height ``r(s)`` [m] along the travelled distance ``s`` [m], with its
+slope ``r'(s)``. The vehicle drives at constant speed ``v``; the front wheel sees
+``δ_1(t) = r(v t)`` and the rear wheel, a wheelbase ``L = a1 - a2`` behind it,
+``δ_2(t) = r(v t - L)`` (SPEC §4). Every profile is a frozen dataclass built from a plain
+dictionary (:func:`make_road`), so a study description stays serializable.
+
+Built-in profiles (``profile = ...`` in the study file):
+
+``two_bumps``  the default of SPEC §4: 1-cos bumps of height ``h``, length ``ℓ``, at ``starts``.
+``bump``       a single 1-cos bump.
+``step``       a smoothed step of height ``h`` rising over ``ramp_length`` from ``position``.
+``iso8608``    a random road of an ISO 8608 class (A-H) and seed, as a sum of cosines.
+``csv``        a measured profile: a CSV file of distance [m], height [m].
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import openmdao.api as om
+from numpy.typing import ArrayLike
+
+from suspopt.errors import ConfigError
+
+
+class RoadProfile:
+    """Base class of road profiles: height ``r(s)``, slope ``dr_ds(s)``, kinks of ``r''``."""
+
+    kind: ClassVar[str] = ''
+
+    def r(self, s: ArrayLike) -> np.ndarray:
+        raise NotImplementedError
+
+    def dr_ds(self, s: ArrayLike) -> np.ndarray:
+        raise NotImplementedError
+
+    def breakpoints(self) -> list[float]:
+        """Distances where ``r''`` is discontinuous (for the time-marching integrator)."""
+        return []
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {'profile': self.kind}
+        d.update({f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)
+                  if f.init})
+        return d
+
+    def validate(self, required_length: float, where: str = 'road') -> list[str]:
+        """Problems of this profile for a drive of ``required_length`` metres (empty if none)."""
+        return []
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return list(value)
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+@dataclass(frozen=True)
+class CosineBumps(RoadProfile):
+    """Consecutive 1-cos bumps: ``r(s) = Σ_j h/2 (1 - cos(2π (s - s_j)/ℓ))`` on each bump."""
+
+    kind: ClassVar[str] = 'two_bumps'
+    height: float = 0.05
+    length: float = 2.0
+    starts: tuple[float, ...] = (5.0, 10.0)
+
+    def _phase(self, s: ArrayLike):
+        s = np.asarray(s, dtype=float)
+        for s_j in self.starts:
+            x = s - s_j
+            on = (x >= 0.0) & (x <= self.length)
+            yield on, 2.0 * np.pi * x / self.length
+
+    def r(self, s: ArrayLike) -> np.ndarray:
+        r = np.zeros(np.shape(s))
+        for on, ph in self._phase(s):
+            r += np.where(on, 0.5 * self.height * (1.0 - np.cos(ph)), 0.0)
+        return r
+
+    def dr_ds(self, s: ArrayLike) -> np.ndarray:
+        dr = np.zeros(np.shape(s))
+        for on, ph in self._phase(s):
+            dr += np.where(on, 0.5 * self.height * 2.0 * np.pi / self.length * np.sin(ph), 0.0)
+        return dr
+
+    def breakpoints(self) -> list[float]:
+        return sorted({b for s_j in self.starts for b in (s_j, s_j + self.length)})
+
+    def validate(self, required_length: float, where: str = 'road') -> list[str]:
+        errs = []
+        if not self.length > 0.0:
+            errs.append(f'{where}.length: must be > 0, got {self.length}')
+        if any(s < 0.0 for s in self.starts):
+            errs.append(f'{where}.starts: bumps must start at s >= 0, got {list(self.starts)}')
+        if list(self.starts) != sorted(self.starts):
+            errs.append(f'{where}.starts: must be increasing, got {list(self.starts)}')
+        return errs
+
+
+@dataclass(frozen=True)
+class SingleBump(CosineBumps):
+    """One 1-cos bump of height ``height`` and length ``length`` starting at ``start``."""
+
+    kind: ClassVar[str] = 'bump'
+    starts: tuple[float, ...] = field(default=(5.0,), init=False)
+    start: float = 5.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'starts', (float(self.start),))
+
+
+@dataclass(frozen=True)
+class SmoothStep(RoadProfile):
+    """A step up of ``height`` rising as a half cosine over ``ramp_length`` from ``position``.
+
+    A sharp step cannot be represented by any time integrator of a tyre without width;
+    the ramp length is the tyre-contact smoothing length and must be > 0.
+    """
+
+    kind: ClassVar[str] = 'step'
+    height: float = 0.05
+    position: float = 5.0
+    ramp_length: float = 0.5
+
+    def r(self, s: ArrayLike) -> np.ndarray:
+        x = np.clip((np.asarray(s, dtype=float) - self.position) / self.ramp_length, 0.0, 1.0)
+        return 0.5 * self.height * (1.0 - np.cos(np.pi * x))
+
+    def dr_ds(self, s: ArrayLike) -> np.ndarray:
+        x = (np.asarray(s, dtype=float) - self.position) / self.ramp_length
+        on = (x >= 0.0) & (x <= 1.0)
+        return np.where(on, 0.5 * self.height * np.pi / self.ramp_length
+                        * np.sin(np.pi * np.clip(x, 0.0, 1.0)), 0.0)
+
+    def breakpoints(self) -> list[float]:
+        return [self.position, self.position + self.ramp_length]
+
+    def validate(self, required_length: float, where: str = 'road') -> list[str]:
+        if not self.ramp_length > 0.0:
+            return [f'{where}.ramp_length: must be > 0 (a sharp step is not integrable), '
+                    f'got {self.ramp_length}']
+        return []
+
+
+#: ISO 8608 displacement PSD G_d(n0) at n0 = 0.1 cycle/m, geometric mean of each class [m³].
+ISO8608_CLASSES = {c: 16e-6 * 4.0**i for i, c in enumerate('ABCDEFGH')}
+
+
+@dataclass(frozen=True)
+class ISO8608Road(RoadProfile):
+    """A random road of ISO 8608 class ``road_class`` as a sum of ``n_waves`` cosines.
+
+    Displacement PSD ``G_d(n) = G_d(n0) (n/n0)^-2`` with ``n0 = 0.1`` cycle/m, sampled on
+    ``n_waves`` equally spaced spatial frequencies in ``[n_min, n_max]`` cycle/m with random
+    phases from ``seed`` (the usual harmonic-superposition method). ``n_max`` defaults to
+    1 cycle/m, i.e. 10 Hz at 10 m/s, which the default collocation grid resolves; raise it
+    together with the number of segments. The first ``fade_in`` metres fade in with a
+    half-cosine window so that the zero initial state of SPEC §1 is consistent.
+    """
+
+    kind: ClassVar[str] = 'iso8608'
+    road_class: str = 'C'
+    seed: int = 0
+    n_min: float = 0.011
+    n_max: float = 1.0
+    n_waves: int = 200
+    fade_in: float = 2.0
+
+    def _waves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        n = np.linspace(self.n_min, self.n_max, self.n_waves)
+        dn = (self.n_max - self.n_min) / max(self.n_waves - 1, 1)
+        g0 = ISO8608_CLASSES[self.road_class.upper()]
+        amp = np.sqrt(2.0 * g0 * (n / 0.1) ** -2 * dn)
+        phase = np.random.default_rng(self.seed).uniform(0.0, 2.0 * np.pi, self.n_waves)
+        return 2.0 * np.pi * n, amp, phase
+
+    def _window(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.fade_in <= 0.0:
+            return (s >= 0.0).astype(float), np.zeros_like(s)
+        x = np.clip(s / self.fade_in, 0.0, 1.0)
+        w = 0.5 * (1.0 - np.cos(np.pi * x))
+        dw = np.where((s > 0.0) & (s < self.fade_in),
+                      0.5 * np.pi / self.fade_in * np.sin(np.pi * x), 0.0)
+        return w, dw
+
+    def _raw(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k, amp, phase = self._waves()
+        arg = np.multiply.outer(s, k) + phase
+        return np.cos(arg) @ amp, -(np.sin(arg) * k) @ amp
+
+    def r(self, s: ArrayLike) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        r, _ = self._raw(s)
+        w, _ = self._window(s)
+        return w * r
+
+    def dr_ds(self, s: ArrayLike) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        r, dr = self._raw(s)
+        w, dw = self._window(s)
+        return dw * r + w * dr
+
+    def breakpoints(self) -> list[float]:
+        return [0.0, self.fade_in] if self.fade_in > 0.0 else [0.0]
+
+    def validate(self, required_length: float, where: str = 'road') -> list[str]:
+        errs = []
+        if str(self.road_class).upper() not in ISO8608_CLASSES:
+            errs.append(f"{where}.road_class: must be one of {', '.join(ISO8608_CLASSES)}, "
+                        f'got {self.road_class!r}')
+        if not 0.0 < self.n_min < self.n_max:
+            errs.append(f'{where}.n_min/n_max: need 0 < n_min < n_max, '
+                        f'got {self.n_min}, {self.n_max}')
+        if self.n_waves < 1:
+            errs.append(f'{where}.n_waves: must be >= 1, got {self.n_waves}')
+        if self.fade_in < 0.0:
+            errs.append(f'{where}.fade_in: must be >= 0, got {self.fade_in}')
+        return errs
+
+
+@dataclass(frozen=True)
+class CSVRoad(RoadProfile):
+    """A measured road: CSV of distance [m] and height [m], one point per row.
+
+    A header row is allowed. The profile is a cubic spline through the points
+    (``scipy.interpolate.CubicSpline``, not-a-knot), so height and slope are continuous.
+    Before the first point (the rear wheel at t = 0 sits a wheelbase behind the front one)
+    the road continues flat at the first height. The data must cover the whole drive.
+    """
+
+    kind: ClassVar[str] = 'csv'
+    file: str = ''
+
+    def _data(self) -> tuple[np.ndarray, np.ndarray]:
+        return read_road_csv(self.file)
+
+    @property
+    def _spline(self):
+        spline = self.__dict__.get('_spline_cache')
+        if spline is None:
+            from scipy.interpolate import CubicSpline
+            s, h = self._data()
+            spline = CubicSpline(s, h)
+            object.__setattr__(self, '_spline_cache', spline)
+        return spline
+
+    def r(self, s: ArrayLike) -> np.ndarray:
+        sp = self._spline
+        s = np.asarray(s, dtype=float)
+        return sp(np.maximum(s, sp.x[0]))
+
+    def dr_ds(self, s: ArrayLike) -> np.ndarray:
+        sp = self._spline
+        s = np.asarray(s, dtype=float)
+        return np.where(s >= sp.x[0], sp(np.maximum(s, sp.x[0]), 1), 0.0)
+
+    def breakpoints(self) -> list[float]:
+        return [float(self._spline.x[0])]
+
+    def validate(self, required_length: float, where: str = 'road') -> list[str]:
+        try:
+            s, _ = self._data()
+        except ConfigError as err:
+            return [f'{where}.file: {err}']
+        if s[0] > 0.0 or s[-1] < required_length:
+            return [f'{where}.file: {self.file} covers s = {s[0]:g}..{s[-1]:g} m but the drive '
+                    f'needs 0..{required_length:g} m (speed × horizon)']
+        return []
+
+
+def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a distance/height CSV; raise :class:`ConfigError` naming the problem."""
+    path = Path(path)
+    try:
+        with path.open(newline='') as fh:
+            rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith('#')]
+    except OSError as err:
+        raise ConfigError(f'cannot read road CSV {path}: {err.strerror}') from None
+    data = []
+    for i, row in enumerate(rows):
+        try:
+            data.append((float(row[0]), float(row[1])))
+        except (ValueError, IndexError):
+            if i == 0:
+                continue  # header
+            raise ConfigError(f'{path}: row {i + 1} is not two numbers: {row!r}') from None
+    if len(data) < 4:
+        raise ConfigError(f'{path}: needs at least 4 distance,height rows, found {len(data)}')
+    arr = np.array(data)
+    if not np.all(np.isfinite(arr)):
+        raise ConfigError(f'{path}: contains non-finite numbers')
+    if np.any(np.diff(arr[:, 0]) <= 0.0):
+        i = int(np.argmax(np.diff(arr[:, 0]) <= 0.0))
+        raise ConfigError(f'{path}: distances must be strictly increasing '
+                          f'(row {i + 2}: {arr[i + 1, 0]:g} after {arr[i, 0]:g})')
+    return arr[:, 0], arr[:, 1]
+
+
+#: Built-in profile names and their classes.
+PROFILES: dict[str, type[RoadProfile]] = {
+    cls.kind: cls for cls in (CosineBumps, SingleBump, SmoothStep, ISO8608Road, CSVRoad)
+}
+
+
+def profile_fields(kind: str) -> dict[str, Any]:
+    """Parameters and defaults of profile ``kind`` (what its study-file table may contain)."""
+    cls = PROFILES[kind]
+    return {f.name: f.default for f in dataclasses.fields(cls) if f.init}
+
+
+def make_road(description: dict[str, Any]) -> RoadProfile:
+    """Build a road profile from ``{'profile': kind, **parameters}`` (already validated)."""
+    params = dict(description)
+    kind = params.pop('profile', 'two_bumps')
+    cls = PROFILES[kind]
+    for f in dataclasses.fields(cls):
+        if f.name in params and isinstance(params[f.name], list):
+            params[f.name] = tuple(params[f.name])
+    return cls(**params)
+
+
+def wheel_road_inputs(road: RoadProfile, t: ArrayLike, speed: float,
+                      offsets: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Road heights and rates under each wheel: ``δ_i(t) = r(v t - offset_i)`` (SPEC §4).
+
+    Returns arrays of shape ``(len(offsets),) + shape(t)``: heights [m] and rates [m/s].
+    """
+    t = np.asarray(t, dtype=float)
+    s = speed * t[None, ...] - np.asarray(offsets, dtype=float).reshape((-1,) + (1,) * t.ndim)
+    return road.r(s), speed * road.dr_ds(s)
+
+
+class RoadInputComp(om.ExplicitComponent):
+    """Road displacement under the front and rear wheel, ``δ_1(t)``, ``δ_2(t)`` (SPEC §4)."""
+
+    def initialize(self) -> None:
+        self.options.declare('num_nodes', types=int)
+        self.options.declare('road', types=RoadProfile, desc='road profile r(s)')
+        self.options.declare('speed', types=float, desc='vehicle speed [m/s]')
+        self.options.declare('offsets', types=tuple,
+                             desc='distance of each wheel behind the front wheel [m]')
+
+    def setup(self) -> None:
+        nn = self.options['num_nodes']
+        ar = np.arange(nn)
+        self.add_input('time', shape=(nn,), units='s')
+        for i in range(len(self.options['offsets'])):
+            self.add_output(f'delta_{i + 1}', shape=(nn,), units='m',
+                            desc=f'road height under wheel {i + 1}')
+            self.declare_partials(f'delta_{i + 1}', 'time', rows=ar, cols=ar)
+
+    def compute(self, inputs, outputs) -> None:
+        h, _ = wheel_road_inputs(self.options['road'], inputs['time'], self.options['speed'],
+                                 self.options['offsets'])
+        for i in range(h.shape[0]):
+            outputs[f'delta_{i + 1}'] = h[i]
+
+    def compute_partials(self, inputs, partials) -> None:
+        _, dh = wheel_road_inputs(self.options['road'], inputs['time'], self.options['speed'],
+                                  self.options['offsets'])
+        for i in range(dh.shape[0]):
+            partials[f'delta_{i + 1}', 'time'] = dh[i]
