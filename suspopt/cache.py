@@ -2,7 +2,7 @@
 
 Computing the total coloring costs several full Jacobians (``../shared/FINDINGS.md``: about
 4 s of a 6 s low-fidelity solve). The sparsity depends only on the model's structure —
-fidelity, grid, which design variables are free, the mechanisms' topology and the code
+fidelity, grid, the mechanisms' topology and the code
 that builds the model — not on numbers (masses, road, design), so one coloring serves
 every study with the same structure. The key hashes exactly that structure, including
 the OpenMDAO/Dymos versions and a digest of suspopt's model-building source, so a code
@@ -46,14 +46,13 @@ def _source_digest() -> str:
     return h.hexdigest()
 
 
-def coloring_key(config: StudyConfig, fidelity: str, free_design: list[str]) -> str:
+def coloring_key(config: StudyConfig, fidelity: str) -> str:
     """Hex digest identifying the total-Jacobian structure of one problem."""
     from suspopt.multibody.mechanism import load_mechanism
     structure = {
         'fidelity': fidelity,
         'segments': config.transcription.segments,
         'order': config.transcription.order,
-        'free_design': list(free_design),
         'versions': [openmdao.__version__, dymos.__version__],
         'source': _source_digest(),
     }

@@ -112,7 +112,7 @@ class ObjectiveConfig:
 class TranscriptionConfig:
     """Dymos Radau collocation grid (SPEC §6) and the states' initial guess."""
 
-    segments: int = field(default=64, metadata=_check('positive'))
+    segments: int = field(default=80, metadata=_check('positive'))
     order: int = field(default=5, metadata=_check('positive'))
     initial_guess: str = field(default='simulate',
                                metadata={'doc': 'simulate (time marching) or zero'})
@@ -507,7 +507,7 @@ def default_config_toml() -> str:
         f'normalization = {tv(o.normalization)}  # reference | paper | custom (then set scales)',
         '',
         '[transcription]                # Dymos Radau collocation (SPEC §6)',
-        f'segments = {t.segments}                 # 16 is the paper\'s (inaccurate) grid',
+        f'segments = {t.segments}                 # SPEC: 64 (0.15 % off here); paper: 16 (30 % off)',
         f'order = {t.order}',
         f'initial_guess = {tv(t.initial_guess)}   # states from time marching, or "zero"',
         '',

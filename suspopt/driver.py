@@ -64,7 +64,9 @@ class IpoptDriver(Driver):
 
     Options: ``max_iter``, ``tol``, ``print_level`` (IPOPT's own output, 0 = silent),
     ``hessian_approximation``, ``progress`` (callable receiving :class:`IterationInfo`),
-    ``watch`` (design-variable names whose values are put in each :class:`IterationInfo`).
+    ``watch`` (design-variable names whose values are put in each :class:`IterationInfo`),
+    ``pinned`` (design variables held fixed by bounds lower = upper, so that evaluating a
+    fixed design keeps the optimization's structure and coloring).
     Further raw IPOPT options go in ``opt_settings``.
     """
 
@@ -101,6 +103,9 @@ class IpoptDriver(Driver):
                              desc='callable(IterationInfo) called after every iteration')
         self.options.declare('watch', default=(), types=(list, tuple),
                              desc='design variables reported in IterationInfo.design')
+        self.options.declare('pinned', default=(), types=(list, tuple),
+                             desc='design variables held at their current value '
+                                  '(IPOPT bounds lower = upper)')
 
     def _get_name(self) -> str:
         return 'IPOPT'
@@ -131,6 +136,13 @@ class IpoptDriver(Driver):
             ub.append(np.broadcast_to(_INF if up is None else up, (size,)))
         self._lb = np.clip(np.concatenate(lb), -_INF, _INF)
         self._ub = np.clip(np.concatenate(ub), -_INF, _INF)
+        x = self._x()
+        start = 0
+        for name, size in zip(self._wrt, self._dv_sizes):
+            if name in self.options['pinned']:
+                self._lb[start:start + size] = self._ub[start:start + size] = \
+                    x[start:start + size]
+            start += size
 
         cbounds = self._autoscaler.get_bounds_scaling('constraint')
         cl, cu = [], []

@@ -98,7 +98,8 @@ class VehicleProblem:
     config : the study description.
     fidelity : ``'low'`` (half car) or ``'mixed'`` (half car + multibody modules).
     scales : normalization ``s_k`` of the four objective terms.
-    optimize_design : False holds the design fixed (evaluation by collocation).
+    optimize_design : False holds every design variable fixed (a problem only for
+        evaluations); otherwise those with ``optimize = true`` in the config are free.
     recorder : path of an SQLite case recorder, or None.
     progress : callable receiving an :class:`IterationInfo` after every IPOPT iteration.
     use_cache : reuse/save the total coloring in the coloring cache.
@@ -116,6 +117,8 @@ class VehicleProblem:
         self.optimize_design = optimize_design
         self.opt_names = [n for n in DESIGN_NAMES
                           if optimize_design and getattr(config.design, n).optimize]
+        # every design variable is an NLP variable (one structure, one coloring); those
+        # not optimized are pinned by IPOPT bounds lower = upper = value
         self._work_dir = tempfile.mkdtemp(prefix='suspopt-om-')
         v, tr = config.vehicle, config.transcription
         self.modules: tuple[SuspensionModule, ...] = ()
@@ -142,11 +145,8 @@ class VehicleProblem:
                         targets=[], ref=np.asarray(self.scales), defect_ref=np.asarray(self.scales))
         for name in DESIGN_NAMES:
             dv = getattr(config.design, name)
-            opt = name in self.opt_names
-            phase.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[name], opt=opt,
-                                lower=dv.lower if opt else None,
-                                upper=dv.upper if opt else None,
-                                ref0=dv.lower if opt else None, ref=dv.upper if opt else None,
+            phase.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[name], opt=True,
+                                lower=dv.lower, upper=dv.upper, ref0=dv.lower, ref=dv.upper,
                                 static_target=True, targets=[name])
         for name, (val, units) in vehicle_parameters(config, fidelity).items():
             phase.add_parameter(name, val=val, units=units, opt=False, static_target=True,
@@ -164,9 +164,9 @@ class VehicleProblem:
         drv.options['tol'] = opt.tol
         drv.options['print_level'] = opt.print_level
         drv.options['progress'] = progress
-        drv.options['watch'] = [f'phase.parameters:{n}' for n in self.opt_names]
+        drv.options['watch'] = [f'phase.parameters:{n}' for n in DESIGN_NAMES]
         drv.opt_settings.update(opt.options)
-        self.cache_key = cache.coloring_key(config, fidelity, self.opt_names)
+        self.cache_key = cache.coloring_key(config, fidelity)
         self.use_cache = use_cache
         self._cached_coloring = cache.load(self.cache_key) if use_cache else None
         self.coloring_from_cache = self._cached_coloring is not None
@@ -208,13 +208,15 @@ class VehicleProblem:
 
     def set_initial_guess(self, traj: Trajectory | None) -> None:
         """Initialize the discretized states from a trajectory (or zeros)."""
+        if traj is None:
+            t, keep = np.array([0.0, self.config.maneuver.horizon]), slice(None)
+        else:  # collocation trajectories repeat the segment-boundary times
+            t, keep = np.unique(traj.t, return_index=True)
         for name, _, _ in STATE_DEFS:
-            vals = np.zeros(2) if traj is None else traj[name]
-            t = np.array([0.0, self.config.maneuver.horizon]) if traj is None else traj.t
+            vals = np.zeros(2) if traj is None else traj[name][keep]
             self.phase.set_state_val(name, vals, time_vals=t)
         J = np.zeros((2, 4)) if traj is None else np.stack(
-            [traj[f'J{k}'] for k in range(1, 5)], axis=1)
-        t = np.array([0.0, self.config.maneuver.horizon]) if traj is None else traj.t
+            [traj[f'J{k}'][keep] for k in range(1, 5)], axis=1)
         self.phase.set_state_val('J', J, time_vals=t)
 
     def terms(self) -> np.ndarray:
@@ -254,9 +256,14 @@ class VehicleProblem:
         return out
 
     # ---------------------------------------------------------------- solve
-    def solve(self) -> SolveResult:
-        """Run IPOPT (optimization, or the collocation solve of a fixed design)."""
+    def solve(self, optimize: bool = True) -> SolveResult:
+        """Run IPOPT: optimize the free design variables, or (``optimize=False``) only solve
+        the collocation equations at the current design."""
         p, drv = self.problem, self.driver
+        calls0 = self.multibody_calls()
+        free = self.opt_names if optimize else []
+        drv.options['pinned'] = [f'phase.parameters:{n}' for n in DESIGN_NAMES
+                                 if n not in free]
         t0 = time.perf_counter()
         try:
             p.run_model()
@@ -273,11 +280,10 @@ class VehicleProblem:
                 cache.store(self.cache_key, coloring)
         p.run_driver()
         t3 = time.perf_counter()
-        if self.recorder_path is not None:
-            p.record('final')
         terms = self.terms()
         success = drv.status in (0, 1)
-        times = dict(self.times, coloring_s=t2 - t1, solve_s=t3 - t2 + (t1 - t0))
+        self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
+        times = {'coloring_s': t2 - t1, 'solve_s': t3 - t2 + (t1 - t0)}
         msg = drv.status_message
         if drv.last_error and not success:
             msg += f' (last model error: {drv.last_error})'
@@ -287,8 +293,13 @@ class VehicleProblem:
             status=drv.status_message, iterations=len(drv.history) - 1 if drv.history else 0,
             function_evaluations=drv.n_function_evals,
             gradient_evaluations=drv.n_gradient_evals, times=times,
-            multibody_calls=self.multibody_calls(),
+            multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},
             coloring_from_cache=self.coloring_from_cache, history=list(drv.history), message=msg)
+
+    def record(self, label: str) -> None:
+        """Record every output (trajectories included) as case ``label`` in the recorder."""
+        if self.recorder_path is not None:
+            self.problem.record(label)
 
     def cleanup(self) -> None:
         """Close the recorder and remove OpenMDAO's scratch directory."""

@@ -43,12 +43,20 @@ def rotation(phi: np.ndarray) -> np.ndarray:
 def _rot_apply(phi: np.ndarray, u: np.ndarray) -> np.ndarray:
     """``A(φ) u`` with broadcasting; ``u`` has a trailing axis of 2."""
     c, s = np.cos(phi), np.sin(phi)
-    return np.stack([c * u[..., 0] - s * u[..., 1], s * u[..., 0] + c * u[..., 1]], -1)
+    u0, u1 = u[..., 0], u[..., 1]
+    x = c * u0 - s * u1
+    out = np.empty(x.shape + (2,))
+    out[..., 0] = x
+    out[..., 1] = s * u0 + c * u1
+    return out
 
 
 def _perp(v: np.ndarray) -> np.ndarray:
     """``B(φ) u = dA/dφ u`` equals the rotated vector turned by +90°: (x, z) -> (-z, x)."""
-    return np.stack([-v[..., 1], v[..., 0]], -1)
+    out = np.empty_like(v)
+    out[..., 0] = -v[..., 1]
+    out[..., 1] = v[..., 0]
+    return out
 
 
 @dataclass
@@ -59,6 +67,7 @@ class MultibodyState:
     qd: np.ndarray
     qdd: np.ndarray | None = None
     lam: np.ndarray | None = None
+    Cq: np.ndarray | None = None  # constraint Jacobian at q, when already computed
 
 
 class PlanarMultibodySolver:
@@ -107,6 +116,16 @@ class PlanarMultibodySolver:
         self.ld_dir = np.array([ld.direction for ld in mechanism.loads],
                                dtype=float).reshape(-1, 2)
 
+        # constant entries of C_q (the ±1 of the joint translations, the fixed bodies)
+        self._Cq_const = np.zeros((self.m, 3 * (nb + 1)))
+        rows = 2 * np.arange(self.nj)
+        for c in range(2):
+            self._Cq_const[rows + c, 3 * self.j_i + c] = 1.0
+            self._Cq_const[rows + c, 3 * self.j_j + c] = -1.0
+        for k, b in enumerate(self.fixed):
+            for c in range(3):
+                self._Cq_const[2 * self.nj + 3 * k + c, 3 * b + c] = 1.0
+
         # coordinate partitioning
         self.ind = np.array([3 * idx[b] + COORDINATES.index(c)
                              for b, c in mechanism.independent], dtype=int)
@@ -153,19 +172,13 @@ class PlanarMultibodySolver:
         """``C_q``, shape (N, m, n)."""
         N = q.shape[0]
         qe = self._ext(q)
-        Cq = np.zeros((N, self.m, 3 * (self.nb + 1)))
+        Cq = np.repeat(self._Cq_const[None], N, axis=0)
         rows = 2 * np.arange(self.nj)
         bi = _perp(_rot_apply(qe[:, self.j_i, 2], self.u_i))  # (N, nj, 2)
         bj = _perp(_rot_apply(qe[:, self.j_j, 2], self.u_j))
         for c in range(2):
-            Cq[:, rows + c, 3 * self.j_i + c] = 1.0
-            Cq[:, rows + c, 3 * self.j_j + c] = -1.0
             Cq[:, rows + c, 3 * self.j_i + 2] = bi[..., c]
             Cq[:, rows + c, 3 * self.j_j + 2] = -bj[..., c]
-        r0 = 2 * self.nj
-        for k, b in enumerate(self.fixed):
-            for c in range(3):
-                Cq[:, r0 + 3 * k + c, 3 * b + c] = 1.0
         return Cq[:, :, :self.n]
 
     def gamma(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -225,12 +238,14 @@ class PlanarMultibodySolver:
 
     # ---------------------------------------------------------------- dynamics
     def solve_augmented(self, q: np.ndarray, qd: np.ndarray, Q: np.ndarray,
-                        baumgarte: tuple[float, float] | None = None
-                        ) -> tuple[np.ndarray, np.ndarray]:
-        """Solve eq. 11 for ``q̈`` (N, n) and ``λ`` (N, m), batched over N states."""
+                        baumgarte: tuple[float, float] | None = None,
+                        Cq: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Solve eq. 11 for ``q̈`` (N, n) and ``λ`` (N, m), batched over N states
+        (``Cq``: the constraint Jacobian at ``q`` if the caller already has it)."""
         self.calls['augmented'] += 1
         N, n, m = q.shape[0], self.n, self.m
-        Cq = self.constraint_jacobian(q)
+        if Cq is None:
+            Cq = self.constraint_jacobian(q)
         rhs_c = self.gamma(q, qd)
         if baumgarte is not None:
             alpha, beta = baumgarte
@@ -285,11 +300,13 @@ class PlanarMultibodySolver:
             f'{self.newton_max_iter} Newton iterations (max |C| = {worst:.2e}); the '
             'independent coordinate is out of the mechanism\'s range')
 
-    def velocities(self, q: np.ndarray, qd_ind: np.ndarray) -> np.ndarray:
+    def velocities(self, q: np.ndarray, qd_ind: np.ndarray,
+                   Cq: np.ndarray | None = None) -> np.ndarray:
         """All velocities (N, n) from the independent ones: ``C_q q̇ = 0``."""
         qd = np.zeros_like(q)
         qd[:, self.ind] = qd_ind
-        Cq = self.constraint_jacobian(q)
+        if Cq is None:
+            Cq = self.constraint_jacobian(q)
         rhs = -np.einsum('nij,nj->ni', Cq[:, :, self.ind], qd[:, self.ind])
         qd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'velocity analysis')
         return qd
@@ -298,14 +315,15 @@ class PlanarMultibodySolver:
                          guess: np.ndarray | None = None) -> MultibodyState:
         """Consistent positions and velocities from the independent coordinates and rates."""
         q = self.positions(np.atleast_2d(q_ind), guess)
-        return MultibodyState(q=q, qd=self.velocities(q, np.atleast_2d(qd_ind)))
+        Cq = self.constraint_jacobian(q)
+        return MultibodyState(q=q, qd=self.velocities(q, np.atleast_2d(qd_ind), Cq), Cq=Cq)
 
     def dynamics(self, q_ind: np.ndarray, qd_ind: np.ndarray, loads: np.ndarray | None,
                  guess: np.ndarray | None = None) -> MultibodyState:
         """Everything at N states given by independent coordinates, rates and load magnitudes."""
         st = self.consistent_state(q_ind, qd_ind, guess)
         st.qdd, st.lam = self.solve_augmented(st.q, st.qd,
-                                              self.generalized_forces(st.q, loads))
+                                              self.generalized_forces(st.q, loads), Cq=st.Cq)
         return st
 
 

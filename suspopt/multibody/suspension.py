@@ -64,7 +64,8 @@ class SuspensionModule:
         loads[:, self.suspension_load] = F_S  # its direction points down: force = -F_S up
         loads[:, self.tyre_load] = F_T
         state.qdd, state.lam = s.solve_augmented(state.q, state.qd,
-                                                 s.generalized_forces(state.q, loads))
+                                                 s.generalized_forces(state.q, loads),
+                                                 Cq=state.Cq)
         return state.qdd[:, s.ind[0]], s.joint_reactions(state.lam)
 
     def constraint_residual(self, state: MultibodyState) -> float:

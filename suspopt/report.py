@@ -1,0 +1,290 @@
+"""Tables and figures of a study, rendered from its recorded data (``suspopt report DIR``).
+
+Reads ``study.json`` (designs, objectives, IPOPT statistics), the SQLite case recorders
+``low.sql``/``mixed.sql`` (the trajectories of every design in each model, as recorded by
+OpenMDAO) and ``time_marching.npz``; writes ``table.md`` and ``figures/*.png``:
+
+* ``road.png`` — road input under both wheels (paper Figure 3);
+* ``initial_design.png`` — low- vs mixed-fidelity z̈_C, θ̈_C, z_W1, z_W2 at the initial
+  design (paper Figure 4);
+* ``optima.png`` — the same at the low- and mixed-fidelity optima (paper Figure 5);
+* ``cross_evaluation.png`` — every design in both models (beyond the paper);
+* ``verification.png`` — collocation against time marching, both models;
+* ``convergence.png`` — objective and constraint violation per IPOPT iteration.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspopt.errors import ConfigError
+from suspopt.timemarching import Trajectory
+
+DESIGN_LABELS = {'initial': 'Initial guess', 'low_optimum': 'Low-fidelity optimum',
+                 'mixed_optimum': 'Mixed-fidelity optimum'}
+FIDELITY_LABELS = {'low': 'low-fidelity (half car)', 'mixed': 'mixed-fidelity (multibody)'}
+SIGNALS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
+           ('thdd_C', r'$\ddot\theta_C$ [rad/s$^2$]', 'chassis pitch acceleration'),
+           ('wheel_z1', r'$z_{W1}$ [m]', 'front wheel displacement'),
+           ('wheel_z2', r'$z_{W2}$ [m]', 'rear wheel displacement'))
+
+
+def read_trajectory(recorder: str | Path, label: str) -> Trajectory | None:
+    """The trajectory recorded as problem case ``label`` (None if absent)."""
+    import openmdao.api as om
+    cr = om.CaseReader(str(recorder))
+    if label not in cr.list_cases('problem', recurse=False, out_stream=None):
+        return None
+    case = cr.get_case(label)
+    ts = 'phase.timeseries.'
+    outputs = case.list_outputs(out_stream=None, return_format='dict', prom_name=True)
+    values: dict[str, np.ndarray] = {}
+    for meta in outputs.values():
+        prom = meta['prom_name']
+        if prom.startswith(ts):
+            val = np.asarray(meta['val'])
+            values[prom[len(ts):]] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
+    J = values.pop('J')
+    for k in range(4):
+        values[f'J{k + 1}'] = J[:, k]
+    wheel = 'q_W' if 'q_W1' in values else 'z_W'
+    values['wheel_z1'], values['wheel_z2'] = values[wheel + '1'], values[wheel + '2']
+    return Trajectory(t=values.pop('time'), values=values, J=J[-1].copy(),
+                      info={'method': 'collocation', 'label': label})
+
+
+def load_study(out_dir: str | Path) -> dict[str, Any]:
+    path = Path(out_dir) / 'study.json'
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f'{out_dir}: no study.json (not a study output directory)') from None
+    except json.JSONDecodeError as err:
+        raise ConfigError(f'{path}: unreadable ({err})') from None
+
+
+# ---------------------------------------------------------------------------- tables
+def _fmt(x: float | None, digits: int = 4) -> str:
+    if x is None:
+        return '—'
+    return f'{x:.{digits}g}'
+
+
+def table_markdown(study: dict[str, Any]) -> str:
+    """Table 4 of the paper and the cross-evaluation tables, as Markdown."""
+    ev, steps, tm = study.get('evaluations', {}), study.get('steps', {}), study.get('time_marching', {})
+    designs = study.get('designs') or {
+        'initial': (ev.get('low/initial') or {}).get('design'),
+        'low_optimum': (steps.get('low') or {}).get('design'),
+        'mixed_optimum': (steps.get('mixed') or {}).get('design')}
+    s = study['scales']
+    lines = [f"Normalization: `{study['normalization']}`, s = ({', '.join(f'{v:.6g}' for v in s.values())}); "
+             'f = Σ 0.25 J_k / s_k.', '',
+             '**Table 4 (paper): design and f, each f in the model that produced it**', '',
+             '| | k_S1 [N/m] | k_S2 [N/m] | c_S1 [N·s/m] | c_S2 [N·s/m] | f | model |',
+             '|---|---|---|---|---|---|---|']
+    own = {'initial': 'low/initial', 'low_optimum': 'low/low_optimum',
+           'mixed_optimum': 'mixed/mixed_optimum'}
+    for name, label in DESIGN_LABELS.items():
+        d = designs.get(name)
+        e = ev.get(own[name])
+        if not d or not e:
+            continue
+        lines.append(f"| {label} | {d['k_S1']:.0f} | {d['k_S2']:.0f} | {d['c_S1']:.0f} | "
+                     f"{d['c_S2']:.0f} | **{e['objective']:.4f}** | {own[name].split('/')[0]} |")
+    lines += ['', '**Every design in both models (collocation; time marching in brackets)**', '',
+              '| design | f, low-fidelity | f, mixed-fidelity |', '|---|---|---|']
+    for name, label in DESIGN_LABELS.items():
+        cells = []
+        for fid in ('low', 'mixed'):
+            e, t = ev.get(f'{fid}/{name}'), tm.get(f'{fid}/{name}')
+            cells.append('—' if e is None else f"{e['objective']:.4f}"
+                         + ('' if t is None else f" ({t['objective']:.4f})"))
+        lines.append(f'| {label} | {cells[0]} | {cells[1]} |')
+    lines += ['', '**Objective terms J_k (collocation)**', '',
+              '| design | model | J1 [(m/s²)²·s] | J2 [(rad/s²)²·s] | J3 [m²·s] | J4 [m²·s] |',
+              '|---|---|---|---|---|---|']
+    for name, label in DESIGN_LABELS.items():
+        for fid in ('low', 'mixed'):
+            e = ev.get(f'{fid}/{name}')
+            if e:
+                J = e['terms']
+                lines.append(f"| {label} | {fid} | {J['J1']:.5g} | {J['J2']:.5g} | "
+                             f"{J['J3']:.5g} | {J['J4']:.5g} |")
+    if tm:
+        lines += ['', '**Collocation vs time marching** (largest relative difference over J1..J4)',
+                  '', '| design | low-fidelity | mixed-fidelity | max constraint residual (mixed) |',
+                  '|---|---|---|---|']
+        for name, label in DESIGN_LABELS.items():
+            lo, mi = tm.get(f'low/{name}'), tm.get(f'mixed/{name}')
+            lines.append(f"| {label} | {_fmt(lo and lo['max_rel_diff_collocation'], 2)} | "
+                         f"{_fmt(mi and mi['max_rel_diff_collocation'], 2)} | "
+                         f"{_fmt(mi and mi.get('max_constraint_residual_m'), 2)} m |")
+    if steps:
+        lines += ['', '**Optimization statistics** (each step starts from the collocation '
+                  'solution of its starting design)', '',
+                  '| step | success | IPOPT status | iterations | function / gradient '
+                  'evaluations | solve [s] | multibody solver calls (each batched over all '
+                  'nodes) |', '|---|---|---|---|---|---|---|']
+        for fid in ('low', 'mixed'):
+            st = steps.get(fid)
+            if st:
+                calls = st.get('multibody_calls') or {}
+                mbd = (f"{calls.get('augmented', 0)} dynamic, {calls.get('positions', 0)} "
+                       'kinematic') if calls else '—'
+                lines.append(
+                    f"| {fid} | {st['success']} | {st['status']} | {st['iterations']} | "
+                    f"{st['function_evaluations']} / {st['gradient_evaluations']} | "
+                    f"{st['times']['solve_s']:.2f} | {mbd} |")
+        probs = study.get('problems') or {}
+        if probs:
+            lines += ['', '| model | setup [s] | total-coloring [s] |', '|---|---|---|']
+            for fid, pr in probs.items():
+                lines.append(f"| {fid} | {pr['setup_s']:.2f} | {pr['coloring_s']:.2f}"
+                             f"{' (from cache)' if pr['coloring_from_cache'] else ''} |")
+    if 'wall_time_s' in study:
+        lines += ['', f"Whole study: {study['wall_time_s']:.1f} s."]
+    return '\n'.join(lines) + '\n'
+
+
+# ---------------------------------------------------------------------------- figures
+def _axes_grid(title: str):
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, constrained_layout=True)
+    fig.suptitle(title)
+    for ax, (_, ylabel, desc) in zip(axes.flat, SIGNALS):
+        ax.set_ylabel(ylabel)
+        ax.set_title(desc, fontsize=10)
+        ax.grid(alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel('time t [s]')
+    return fig, axes
+
+
+def _plot_set(path: Path, title: str, curves: list[tuple[str, Trajectory, dict]]) -> None:
+    import matplotlib.pyplot as plt
+    fig, axes = _axes_grid(title)
+    for label, tr, style in curves:
+        for ax, (key, _, _) in zip(axes.flat, SIGNALS):
+            ax.plot(tr.t, tr[key], label=label, **style)
+    axes[0, 0].legend(fontsize=9)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def render(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and the figures of a (possibly partial) study directory."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from suspopt.config import config_from_dict
+    from suspopt.road import wheel_road_inputs
+
+    out = Path(out_dir)
+    study = load_study(out)
+    (out / 'table.md').write_text(table_markdown(study))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    written = [out / 'table.md']
+
+    config = config_from_dict(study['config'])
+    t = np.linspace(0.0, config.maneuver.horizon, 2001)
+    h, _ = wheel_road_inputs(config.road_profile(), t, config.maneuver.speed,
+                             (0.0, config.vehicle.wheelbase))
+    fig, ax = plt.subplots(figsize=(8, 3.5), constrained_layout=True)
+    ax.plot(t, h[0] * 1e3, label=r'front wheel $\delta_1(t)$')
+    ax.plot(t, h[1] * 1e3, '--', label=r'rear wheel $\delta_2(t)$')
+    ax.set_xlabel('time t [s]')
+    ax.set_ylabel('road displacement [mm]')
+    ax.set_title(f"Road input ({study['config']['road']['profile']}, "
+                 f"v = {config.maneuver.speed:g} m/s) — paper Fig. 3")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.savefig(figs / 'road.png', dpi=120)
+    plt.close(fig)
+    written.append(figs / 'road.png')
+
+    traj = {}
+    for fid in ('low', 'mixed'):
+        rec = out / f'{fid}.sql'
+        if rec.exists():
+            for name, label in (('initial', 'initial'), ('low_optimum', 'low_optimum'),
+                                ('mixed_optimum', 'mixed_optimum')):
+                tr = read_trajectory(rec, label) or read_trajectory(rec, f'{fid}_optimum'
+                                                                    if name == f'{fid}_optimum'
+                                                                    else label)
+                if tr is not None:
+                    traj[fid, name] = tr
+    low_style = {'color': 'tab:blue', 'lw': 1.3}
+    mixed_style = {'color': 'tab:red', 'lw': 1.1, 'ls': '--'}
+    if ('low', 'initial') in traj and ('mixed', 'initial') in traj:
+        _plot_set(figs / 'initial_design.png',
+                  'Initial design: low- vs mixed-fidelity model — paper Fig. 4',
+                  [('low fidelity', traj['low', 'initial'], low_style),
+                   ('mixed fidelity', traj['mixed', 'initial'], mixed_style)])
+        written.append(figs / 'initial_design.png')
+    if ('low', 'low_optimum') in traj and ('mixed', 'mixed_optimum') in traj:
+        _plot_set(figs / 'optima.png',
+                  'Optimal designs: low-fidelity optimum (half car) vs mixed-fidelity optimum '
+                  '(multibody) — paper Fig. 5',
+                  [('low-fidelity optimum, low-fidelity model', traj['low', 'low_optimum'],
+                    low_style),
+                   ('mixed-fidelity optimum, mixed-fidelity model',
+                    traj['mixed', 'mixed_optimum'], mixed_style)])
+        written.append(figs / 'optima.png')
+    if ('mixed', 'low_optimum') in traj and ('mixed', 'mixed_optimum') in traj:
+        curves = [(f'{DESIGN_LABELS[n].lower()}', traj['mixed', n], st) for n, st in
+                  (('initial', {'color': 'gray', 'lw': 1.0}),
+                   ('low_optimum', low_style), ('mixed_optimum', mixed_style))
+                  if ('mixed', n) in traj]
+        _plot_set(figs / 'cross_evaluation.png',
+                  'All three designs in the mixed-fidelity (multibody) model', curves)
+        written.append(figs / 'cross_evaluation.png')
+
+    tm_path = out / 'time_marching.npz'
+    if tm_path.exists() and traj:
+        data = np.load(tm_path)
+        fig, axes = _axes_grid('Collocation (markers) vs time marching (lines)')
+        for (fid, name), style in ((('low', 'low_optimum'), low_style),
+                                   (('mixed', 'mixed_optimum'), mixed_style)):
+            key = f'{fid}/{name}'
+            if (fid, name) not in traj or f'{key}/t' not in data:
+                continue
+            for ax, (sig, _, _) in zip(axes.flat, SIGNALS):
+                ax.plot(data[f'{key}/t'], data[f'{key}/{sig}'], color=style['color'], lw=0.9,
+                        label=f'{fid} fidelity at its optimum, time marching')
+                tr = traj[fid, name]
+                ax.plot(tr.t[::3], tr[sig][::3], 'o', ms=2.2, color=style['color'],
+                        alpha=0.7, label=f'{fid} fidelity at its optimum, collocation nodes')
+        axes[0, 0].legend(fontsize=8)
+        fig.savefig(figs / 'verification.png', dpi=120)
+        plt.close(fig)
+        written.append(figs / 'verification.png')
+
+    steps = study.get('steps', {})
+    if steps:
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+        for fid, color in (('low', 'tab:blue'), ('mixed', 'tab:red')):
+            hist = (steps.get(fid) or {}).get('history') or []
+            if hist:
+                it = [h['iteration'] for h in hist]
+                a1.plot(it, [h['objective'] for h in hist], 'o-', color=color, ms=3,
+                        label=FIDELITY_LABELS[fid])
+                a2.semilogy(it, [max(h['constraint_violation'], 1e-16) for h in hist], 'o-',
+                            color=color, ms=3, label=FIDELITY_LABELS[fid])
+        a1.set(xlabel='IPOPT iteration', ylabel='objective f', title='Objective')
+        a2.set(xlabel='IPOPT iteration', ylabel='constraint violation (scaled)',
+               title='Collocation defects')
+        for a in (a1, a2):
+            a.grid(alpha=0.3)
+            a.legend(fontsize=9)
+        fig.savefig(figs / 'convergence.png', dpi=120)
+        plt.close(fig)
+        written.append(figs / 'convergence.png')
+    return written
