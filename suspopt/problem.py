@@ -192,6 +192,7 @@ class VehicleProblem:
         p.set_val('objective.weights', np.asarray(config.objective.weights))
         p.set_val('objective.scales', np.asarray(self.scales))
         phase.set_time_val(initial=0.0, duration=config.maneuver.horizon)
+        self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
         p.final_setup()
         self.times = {'setup_s': time.perf_counter() - t0}
 
@@ -207,17 +208,26 @@ class VehicleProblem:
                                               units=DESIGN_UNITS[n])[0]) for n in DESIGN_NAMES}
 
     def set_initial_guess(self, traj: Trajectory | None) -> None:
-        """Initialize the discretized states from a trajectory (or zeros)."""
+        """Initialize the discretized states from a trajectory (or zeros).
+
+        The first node is the fixed initial state and is always zero (SPEC §1), whatever
+        the guess starts from.
+        """
         if traj is None:
             t, keep = np.array([0.0, self.config.maneuver.horizon]), slice(None)
         else:  # collocation trajectories repeat the segment-boundary times
             t, keep = np.unique(traj.t, return_index=True)
         for name, _, _ in STATE_DEFS:
-            vals = np.zeros(2) if traj is None else traj[name][keep]
+            vals = np.zeros(2) if traj is None else np.array(traj[name][keep])
             self.phase.set_state_val(name, vals, time_vals=t)
         J = np.zeros((2, 4)) if traj is None else np.stack(
             [traj[f'J{k}'][keep] for k in range(1, 5)], axis=1)
         self.phase.set_state_val('J', J, time_vals=t)
+        for name in [s for s, _, _ in STATE_DEFS] + ['J']:
+            path = f'phase.states:{name}'
+            vals = self.problem.get_val(path)
+            vals[0] = 0.0
+            self.problem.set_val(path, vals)
 
     def terms(self) -> np.ndarray:
         return np.array(self.problem.get_val('objective.J'))
