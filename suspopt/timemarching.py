@@ -67,39 +67,60 @@ class VehicleRHS:
         if fidelity == 'mixed':
             self.modules = modules or (SuspensionModule(v.front.mechanism),
                                        SuspensionModule(v.rear.mechanism))
-            self._guess: list[np.ndarray | None] = [None, None]
+            # identical front and rear mechanisms: one batched solver call for both axles
+            self._shared = self.modules[0].mechanism == self.modules[1].mechanism
+            self._guess: dict[int, np.ndarray] = {}
         self.max_constraint_residual = 0.0
         self.n_evals = 0
 
+    def _kinematics(self, z_W: list[np.ndarray], v_W: list[np.ndarray]):
+        """Multibody position/velocity analysis of both axles (one batched call if shared)."""
+        groups = [(0, [0, 1])] if self._shared else [(0, [0]), (1, [1])]
+        out = {}
+        for m, axles in groups:
+            z = np.concatenate([z_W[i] for i in axles])
+            guess = self._guess.get(m)
+            kin = self.modules[m].kinematics(z, np.concatenate([v_W[i] for i in axles]),
+                                             guess if guess is not None
+                                             and guess.shape[0] == z.size else None)
+            self._guess[m] = kin.state.q
+            self.max_constraint_residual = max(self.max_constraint_residual,
+                                               self.modules[m].constraint_residual(kin.state))
+            out[m] = (axles, kin)
+        return out
+
     def signals(self, t: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
         """All model signals at times ``t`` (N,) for states ``y`` (12, N)."""
-        z_C, v_C, th, om_, *wheels = y[:8]
+        z_C, v_C, th, om_ = y[:4]
+        z_W, v_W = [y[4], y[6]], [y[5], y[7]]
+        n = np.size(t)
         delta, _ = wheel_road_inputs(self.road, t, self.speed, self.offsets)
         out = {'delta_1': delta[0], 'delta_2': delta[1]}
-        F_S, F_T = [], []
+        if self.fidelity == 'low':
+            spring, wheel = list(zip(z_W, v_W)), z_W
+        else:
+            kin = self._kinematics(z_W, v_W)
+            spring, wheel = [None, None], [None, None]
+            for axles, k in kin.values():
+                for j, i in enumerate(axles):
+                    sl = slice(j * n, (j + 1) * n)
+                    spring[i] = (k.q_U[sl], k.qd_U[sl])
+                    wheel[i] = k.q_W[sl]
+                    out[f'q_U{i + 1}'] = k.q_U[sl]
+        F_S = [eq.suspension_force(self.k_S[i], self.c_S[i], self.a[i], *spring[i],
+                                   z_C, v_C, th, om_) for i in range(2)]
+        F_T = [eq.tyre_force(self.k_T[i], delta[i], wheel[i]) for i in range(2)]
         for i in range(2):
-            z_W, v_W = wheels[2 * i], wheels[2 * i + 1]
-            if self.fidelity == 'low':
-                z_spring, v_spring, z_wheel = z_W, v_W, z_W
-            else:
-                guess = self._guess[i]
-                if guess is not None and guess.shape[0] != np.size(z_W):
-                    guess = None
-                kin = self.modules[i].kinematics(z_W, v_W, guess)
-                self._guess[i] = kin.state.q
-                self.max_constraint_residual = max(
-                    self.max_constraint_residual, self.modules[i].constraint_residual(kin.state))
-                z_spring, v_spring, z_wheel = kin.q_U, kin.qd_U, kin.q_W
-                out[f'q_U{i + 1}'] = kin.q_U
-            F_S.append(eq.suspension_force(self.k_S[i], self.c_S[i], self.a[i],
-                                           z_spring, v_spring, z_C, v_C, th, om_))
-            F_T.append(eq.tyre_force(self.k_T[i], delta[i], z_wheel))
+            out[f'wheel_z{i + 1}'] = wheel[i]
+            out[f'F_S{i + 1}'], out[f'F_T{i + 1}'] = F_S[i], F_T[i]
             if self.fidelity == 'low':
                 out[f'zdd_W{i + 1}'] = eq.wheel_acceleration(F_S[i], F_T[i], self.m[i])
-            else:
-                out[f'zdd_W{i + 1}'], _ = self.modules[i].dynamics(kin.state, F_S[i], F_T[i])
-            out[f'wheel_z{i + 1}'] = z_wheel
-            out[f'F_S{i + 1}'], out[f'F_T{i + 1}'] = F_S[i], F_T[i]
+        if self.fidelity == 'mixed':
+            for m, (axles, k) in kin.items():
+                acc, _ = self.modules[m].dynamics(k.state, np.concatenate([F_S[i] for i in axles]),
+                                                  np.concatenate([F_T[i] for i in axles]))
+                for j, i in enumerate(axles):
+                    out[f'zdd_W{i + 1}'] = acc[j * n:(j + 1) * n]
         out['zdd_C'] = eq.chassis_heave_acceleration(F_S[0], F_S[1], self.M)
         out['thdd_C'] = eq.chassis_pitch_acceleration(F_S[0], F_S[1], *self.a, self.I)
         out['dJ_dt'] = eq.objective_integrands(out['zdd_C'], out['thdd_C'],
@@ -114,13 +135,14 @@ class VehicleRHS:
 
 
 def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None = None,
-             *, t_eval: np.ndarray | None = None, rtol: float = 1e-10,
-             atol: float = 1e-13) -> Trajectory:
+             *, t_eval: np.ndarray | None = None, rtol: float = 1e-8,
+             atol: float = 1e-11) -> Trajectory:
     """Integrate a model from the zero initial state over the horizon (SPEC §1).
 
     ``design`` defaults to the configured initial design. Returns the trajectory at
     ``t_eval`` (default: 2001 points) with states, accelerations, forces and road inputs,
-    and the objective integrals ``J`` at the final time.
+    and the objective integrals ``J`` at the final time. The default tolerances give the
+    ``J_k`` to about 1e-8 relative (checked against rtol = 1e-12).
     """
     design = dict(config.design.initial() if design is None else design)
     missing = set(DESIGN_NAMES) - set(design)

@@ -155,27 +155,37 @@ class PlanarMultibodySolver:
 
     def constraints(self, q: np.ndarray) -> np.ndarray:
         """Position constraints ``C(q)``, shape (N, m)."""
+        return self._constraints(q, self._joint_arms(q))
+
+    def _joint_arms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``A(φ_i) u_i`` and ``A(φ_j) u_j`` of every joint, (N, nj, 2) each."""
         qe = self._ext(q)
-        pi = qe[:, self.j_i, :2] + _rot_apply(qe[:, self.j_i, 2], self.u_i)
-        pj = qe[:, self.j_j, :2] + _rot_apply(qe[:, self.j_j, 2], self.u_j)
-        parts = [(pi - pj).reshape(q.shape[0], -1)]
+        return (_rot_apply(qe[:, self.j_i, 2], self.u_i),
+                _rot_apply(qe[:, self.j_j, 2], self.u_j))
+
+    def _constraints(self, q: np.ndarray, arms) -> np.ndarray:
+        N = q.shape[0]
+        qe = self._ext(q)
+        C = np.empty((N, self.m))
+        C[:, :2 * self.nj] = (qe[:, self.j_i, :2] + arms[0] - qe[:, self.j_j, :2]
+                              - arms[1]).reshape(N, -1)
         if len(self.fixed):
-            q3 = q.reshape(q.shape[0], self.nb, 3)
-            parts.append((q3[:, self.fixed] - self.q0.reshape(self.nb, 3)[self.fixed])
-                         .reshape(q.shape[0], -1))
-        return np.concatenate(parts, axis=1)
+            q3 = q.reshape(N, self.nb, 3)
+            C[:, 2 * self.nj:] = (q3[:, self.fixed] - self.q0.reshape(self.nb, 3)[self.fixed]
+                                  ).reshape(N, -1)
+        return C
 
     def positions_residual_ok(self, q: np.ndarray) -> bool:
         return bool(np.all(np.abs(self.constraints(q)) < 1e-9))
 
-    def constraint_jacobian(self, q: np.ndarray) -> np.ndarray:
+    def constraint_jacobian(self, q: np.ndarray, arms=None) -> np.ndarray:
         """``C_q``, shape (N, m, n)."""
         N = q.shape[0]
-        qe = self._ext(q)
+        if arms is None:
+            arms = self._joint_arms(q)
         Cq = np.repeat(self._Cq_const[None], N, axis=0)
         rows = 2 * np.arange(self.nj)
-        bi = _perp(_rot_apply(qe[:, self.j_i, 2], self.u_i))  # (N, nj, 2)
-        bj = _perp(_rot_apply(qe[:, self.j_j, 2], self.u_j))
+        bi, bj = _perp(arms[0]), _perp(arms[1])  # (N, nj, 2)
         for c in range(2):
             Cq[:, rows + c, 3 * self.j_i + 2] = bi[..., c]
             Cq[:, rows + c, 3 * self.j_j + 2] = -bj[..., c]
@@ -289,10 +299,11 @@ class PlanarMultibodySolver:
         q = np.array(np.broadcast_to(self.q0, (N, self.n))) if guess is None else guess.copy()
         q[:, self.ind] = q_ind
         for _ in range(self.newton_max_iter):
-            C = self.constraints(q)
+            arms = self._joint_arms(q)
+            C = self._constraints(q, arms)
             if np.max(np.abs(C), initial=0.0) < self.newton_tol:
                 return q
-            J = self.constraint_jacobian(q)[:, :, self.dep]
+            J = self.constraint_jacobian(q, arms)[:, :, self.dep]
             q[:, self.dep] -= _batched_solve(J, C, 'position analysis C(q) = 0')
         worst = float(np.max(np.abs(self.constraints(q))))
         raise MultibodyError(
