@@ -1,0 +1,121 @@
+"""The command line end to end: outputs, refusals, failures, interruption, report."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from suspopt.cli import main
+
+pytestmark = pytest.mark.slow
+KEYS = {'fidelity', 'design', 'objective', 'terms', 'scales', 'success', 'iterations',
+        'wall_time_s'}
+GRID = ['--segments', '30']
+
+
+def _run(args, capsys):
+    code = main(args)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_evaluate_prints_json(capsys):
+    code, out, _ = _run(['evaluate', '--fidelity', 'low', '--method', 'time-marching'], capsys)
+    assert code == 0
+    res = json.loads(out)
+    assert KEYS <= set(res) and res['method'] == 'time-marching'
+    assert abs(res['objective'] - 1.0) < 1e-6  # reference normalization at the initial design
+    code, out, _ = _run(['evaluate', '--fidelity', 'mixed', '--design', '37500,28100,1500,1235',
+                         '--normalization', 'paper', *GRID], capsys)
+    assert code == 0
+    res = json.loads(out)
+    assert KEYS <= set(res) and res['scales'] == {'s1': 0.1, 's2': 0.01, 's3': 1.0, 's4': 1.0}
+    assert res['design']['k_S1'] == 37500.0 and res['success']
+
+
+def test_optimize_writes_results_and_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / 'opt'
+    code, stdout, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out)],
+                                capsys)
+    assert code == 0
+    res = json.loads((out / 'result.json').read_text())
+    assert KEYS <= set(res) and res['success'] and res['iterations'] > 0
+    assert (out / 'cases.sql').exists()
+    assert 'objective f =' in stdout and 'iter' in stderr and 'constr.viol' in stderr
+    code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out)], capsys)
+    assert code == 2 and 'already contains results' in stderr and '--overwrite' in stderr
+    code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out),
+                            '--overwrite', '--quiet'], capsys)
+    assert code == 0 and stderr == ''
+
+
+def test_iteration_limit_exits_1_and_keeps_results(tmp_path, capsys):
+    out = tmp_path / 'limited'
+    code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--max-iter', '2',
+                            '--out', str(out), '--quiet'], capsys)
+    assert code == 1
+    res = json.loads((out / 'result.json').read_text())
+    assert res['success'] is False and res['status'] == 'Maximum_Iterations_Exceeded'
+    assert 'Maximum_Iterations_Exceeded' in stderr and 'after 2 iterations' in stderr
+    assert 'constraint violation' in stderr
+
+
+def test_ctrl_c_stops_cleanly(tmp_path):
+    """SIGINT ends IPOPT after the current iteration; results and recorder are kept."""
+    out = tmp_path / 'interrupted'
+    proc = subprocess.Popen([sys.executable, '-m', 'suspopt.cli', 'optimize', '--fidelity',
+                             'mixed', *GRID, '--out', str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, 'PYTHONUNBUFFERED': '1'})
+    lines = []
+    for line in proc.stderr:
+        lines.append(line)
+        if line.strip().startswith('1 '):  # IPOPT iteration 1 done
+            proc.send_signal(signal.SIGINT)
+            break
+    stdout, rest = proc.communicate(timeout=300)
+    stderr = ''.join(lines) + rest
+    assert proc.returncode == 1, stderr
+    res = json.loads((out / 'result.json').read_text())
+    assert res['success'] is False and res['status'] == 'User_Requested_Stop'
+    assert (out / 'cases.sql').exists()
+    assert 'User_Requested_Stop' in stderr and 'Traceback' not in stderr
+
+
+def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
+    """The study from `suspopt init`'s file equals the study with no file; `report`
+    re-renders the same table from the recorded data alone."""
+    assert main(['init', str(tmp_path / 'case.toml')]) == 0
+    a, b = tmp_path / 'a', tmp_path / 'b'
+    assert main(['study', *GRID, '--out', str(a), '--quiet']) == 0
+    assert main(['study', *GRID, '--out', str(b), '--quiet', '--no-verify',
+                 '--config', str(tmp_path / 'case.toml')]) == 0
+    capsys.readouterr()
+    sa = json.loads((a / 'study.json').read_text())
+    sb = json.loads((b / 'study.json').read_text())
+    assert sa['complete'] and sb['complete']
+    assert sa['designs'] == sb['designs']
+    for key, ev in sa['evaluations'].items():
+        assert ev['objective'] == sb['evaluations'][key]['objective'], key
+    assert set(sa['time_marching']) == {f'{m}/{d}' for m in ('low', 'mixed') for d in
+                                        ('initial', 'low_optimum', 'mixed_optimum')}
+    for key, rec in sa['time_marching'].items():  # the recorded comparison is consistent
+        coll = sa['evaluations'][key]['terms']
+        diff = max(abs(coll[k] / v - 1.0) for k, v in rec['terms'].items())
+        assert rec['max_rel_diff_collocation'] == pytest.approx(diff, rel=1e-12)
+    table = (a / 'table.md').read_text()
+    figures = sorted(p.name for p in (a / 'figures').iterdir())
+    assert figures == ['convergence.png', 'cross_evaluation.png', 'initial_design.png',
+                       'optima.png', 'road.png', 'verification.png']
+    (a / 'table.md').unlink()
+    for p in (a / 'figures').iterdir():
+        p.unlink()
+    assert main(['report', str(a)]) == 0
+    assert (a / 'table.md').read_text() == table
+    assert sorted(p.name for p in (a / 'figures').iterdir()) == figures
+    assert main(['report', str(tmp_path)]) == 2  # not a study directory

@@ -1,0 +1,108 @@
+"""IpoptDriver on small problems with known answers (independent of Dymos)."""
+from __future__ import annotations
+
+import numpy as np
+import openmdao.api as om
+import pytest
+
+from suspopt.driver import IpoptDriver
+
+
+class Paraboloid(om.ExplicitComponent):
+    """f = (x-3)² + xy + (y+4)² - 3; optional NaN region to emulate a failing model."""
+
+    def initialize(self):
+        self.options.declare('nan_above', default=np.inf)
+
+    def setup(self):
+        self.add_input('x', 0.0)
+        self.add_input('y', 0.0)
+        self.add_output('f', 0.0)
+        self.add_output('g', 0.0)
+        self.declare_partials('*', '*')
+
+    def compute(self, inputs, outputs):
+        x, y = inputs['x'][0], inputs['y'][0]
+        outputs['f'] = (x - 3.0)**2 + x * y + (y + 4.0)**2 - 3.0
+        if x > self.options['nan_above']:
+            outputs['f'] = np.nan
+        outputs['g'] = x + y
+
+    def compute_partials(self, inputs, J):
+        x, y = inputs['x'][0], inputs['y'][0]
+        J['f', 'x'] = 2.0 * (x - 3.0) + y
+        J['f', 'y'] = x + 2.0 * (y + 4.0)
+        J['g', 'x'] = 1.0
+        J['g', 'y'] = 1.0
+
+
+def _problem(con=None, nan_above=np.inf, x0=(0.0, 0.0), **opts):
+    p = om.Problem(reports=False)
+    p.model.add_subsystem('comp', Paraboloid(nan_above=nan_above), promotes=['*'])
+    p.model.add_design_var('x', lower=-50.0, upper=50.0)
+    p.model.add_design_var('y', lower=-50.0, upper=50.0)
+    p.model.add_objective('f')
+    if con:
+        p.model.add_constraint('g', **con)
+    p.driver = IpoptDriver(**opts)
+    p.setup()
+    p.set_val('x', x0[0])
+    p.set_val('y', x0[1])
+    return p
+
+
+def test_unconstrained_minimum():
+    """Analytic minimum: x = 20/3, y = -22/3, f = -27.333..."""
+    p = _problem()
+    failed = p.run_driver()
+    assert failed.success
+    assert p.driver.status == 0
+    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [20 / 3, -22 / 3],
+                               rtol=1e-6)
+    np.testing.assert_allclose(p.get_val('f')[0], -82 / 3, rtol=1e-8)
+
+
+def test_two_sided_constraint_and_progress():
+    """x + y = 1 (equality): on y = 1 - x, f = x² - 15x + 31, minimum at x = 7.5, y = -6.5.
+    With -15 <= x + y <= 0 the unconstrained optimum (x + y = -2/3) is feasible."""
+    seen = []
+    p = _problem(con={'equals': 1.0}, progress=seen.append)
+    p.run_driver()
+    assert p.driver.status == 0
+    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [7.5, -6.5],
+                               rtol=1e-6)
+    assert seen and seen[-1].constraint_violation < 1e-8
+    assert [s.iteration for s in seen] == list(range(len(seen)))
+    p2 = _problem(con={'lower': -15.0, 'upper': 0.0})
+    p2.run_driver()
+    np.testing.assert_allclose(p2.get_val('x')[0], 20 / 3, rtol=1e-6)
+
+
+def test_iteration_limit_is_a_failure():
+    p = _problem(max_iter=1)
+    result = p.run_driver()
+    assert result.success is False
+    assert p.driver.status_message == 'Maximum_Iterations_Exceeded'
+
+
+def test_nan_region_is_avoided_by_backtracking():
+    """The model returns NaN for x > 8: IPOPT is told the evaluation failed, cuts the
+    step and still converges to the minimum at x = 20/3."""
+    p = _problem(nan_above=8.0, x0=(7.9, 0.0))
+    p.run_driver()
+    assert p.driver.status == 0
+    np.testing.assert_allclose(p.get_val('x')[0], 20 / 3, rtol=1e-6)
+
+
+def test_nan_at_start_is_reported():
+    p = _problem(nan_above=-1.0, x0=(0.0, 0.0))
+    result = p.run_driver()
+    assert result.success is False
+    assert 'NaN' in (p.driver.last_error or '')
+
+
+def test_pinned_variable_is_held():
+    p = _problem(pinned=['x'], x0=(2.0, 0.0))
+    p.run_driver()
+    assert p.get_val('x')[0] == 2.0
+    np.testing.assert_allclose(p.get_val('y')[0], -5.0, rtol=1e-6)  # df/dy = 2 + 2(y+4) = 0
