@@ -10,8 +10,12 @@ import pytest  # noqa: E402
 
 
 @pytest.fixture(scope='session', autouse=True)
-def _coloring_cache(tmp_path_factory):
-    """Colorings computed by the tests go to a session directory, not the user's cache."""
-    if 'SUSPOPT_CACHE_DIR' not in os.environ:
-        os.environ['SUSPOPT_CACHE_DIR'] = str(tmp_path_factory.mktemp('suspopt-cache'))
+def _isolated_outputs(tmp_path_factory):
+    """Colorings computed by the tests go to a directory of this test run (shared by
+    pytest-xdist workers), not the user's cache; OpenMDAO's own output folders of ad-hoc
+    problems go to a temporary directory, not the working directory."""
+    root = tmp_path_factory.getbasetemp()
+    shared = root.parent if os.environ.get('PYTEST_XDIST_WORKER') else root
+    os.environ.setdefault('SUSPOPT_CACHE_DIR', str(shared / 'suspopt-cache'))
+    os.environ['OPENMDAO_WORKDIR'] = str(tmp_path_factory.mktemp('openmdao'))
     yield
