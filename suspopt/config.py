@@ -134,7 +134,8 @@ class MultibodyConfig:
     """Finite differencing of the black-box multibody module."""
 
     fd_form: str = 'forward'
-    fd_step: float = field(default=1e-6, metadata=_check('positive'))
+    fd_step: float = field(default=1e-6, metadata=_check(
+        'positive', doc='absolute step in the SI units of every input (m, m/s, N)'))
 
 
 @dataclass(frozen=True)
@@ -519,7 +520,7 @@ def default_config_toml() -> str:
         '',
         '[multibody]                    # finite differences of the black-box module',
         f'fd_form = {tv(mb.fd_form)}         # forward | central',
-        f'fd_step = {tv(mb.fd_step)}             # relative step',
+        f'fd_step = {tv(mb.fd_step)}             # absolute step, SI units of each input (m, m/s, N)',
         '',
     ]
     return '\n'.join(lines)

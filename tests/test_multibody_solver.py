@@ -88,25 +88,32 @@ def test_free_motion_conserves_energy_and_constraints(solver, method):
     assert np.max(np.abs(tr.q[:, xi(W, 2)])) < 1e-9
 
 
+@pytest.mark.parametrize('direction', [1.0, -1.0])
 @pytest.mark.parametrize('method', ['partitioned', 'baumgarte'])
-def test_large_rotation_of_the_parallelogram(mech, method):
-    """The arms swing through a large angle: from -80° to +80° (160°), at uniform rate.
+def test_large_rotation_of_the_parallelogram(mech, method, direction):
+    """The arms swing freely through a large angle, 0 → ±85°, at the exact uniform rate.
 
     With the wheel's z as independent coordinate the partitioning is singular when an arm
-    is vertical (and near it, z_W barely changes), so the partitioned run uses a mechanism
-    built in Python whose independent coordinate is the upper arm's angle. The Baumgarte
-    run integrates all body coordinates and starts from the same consistent state. The
-    change points of the parallelogram (arms vertical, all four links collinear, θ = ±90°)
-    are a bifurcation where C_q loses rank; a run through them is not attempted.
+    is vertical (near it z_W barely changes), so these runs use a mechanism built in Python
+    whose independent coordinate is the upper arm's angle. The change points of the
+    parallelogram (arms vertical, all four links collinear, θ = ±90°) are a bifurcation
+    where C_q loses rank; neither method can pass them (the step size collapses), so a
+    full revolution is not attempted. The runs start at the reference pose because
+    ``simulate_mechanism`` builds its initial state by Newton from the reference pose: from
+    θ = -80° directly it converges to the crossed (anti-parallelogram) assembly.
     """
     m_phi = dataclasses.replace(mech, independent=(('U', 'phi'),))
     s = PlanarMultibodySolver(m_phi)
-    th0, omega = -math.radians(80.0), 1.0
-    T_end = math.radians(160.0) / omega
+    omega = direction * 1.0
+    T_end = math.radians(85.0)
     t = np.linspace(0.0, T_end, 81)
-    tr = simulate_mechanism(s, (0.0, T_end), [th0], [omega], method=method, t_eval=t)
+    # max_step: the exact motion has zero acceleration, so the error estimate is ~0 and
+    # DOP853 would grow its step until one stage asks Newton (warm-started from the last
+    # evaluation) for a pose tens of degrees away, which does not converge
+    tr = simulate_mechanism(s, (0.0, T_end), [0.0], [omega], method=method, t_eval=t,
+                            max_step=0.05)
     theta = tr.q[:, xi(U, 2)]
-    np.testing.assert_allclose(theta, th0 + omega * t, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(theta, omega * t, rtol=0, atol=1e-8)
     np.testing.assert_allclose(tr.q[:, xi(L, 2)], theta, rtol=0, atol=1e-8)
     assert np.max(np.abs(tr.q[:, xi(W, 2)])) < 1e-9                      # no wheel rotation
     np.testing.assert_allclose(tr.q[:, xi(W, 1)], LA * np.sin(theta), atol=1e-9)
@@ -375,20 +382,33 @@ def test_nan_and_out_of_range_inputs_are_multibody_errors(solver):
 def test_batched_dynamics_equals_single_state_calls(solver):
     """N states in one call give the same result as N single calls.
 
-    Bitwise equality does not hold: the batched Newton loop in ``positions`` stops only
-    when the worst state has converged, so states that converged earlier get extra
-    (round-off sized) updates. The agreement is at the round-off level, far below the
-    Newton tolerance (1e-12 m).
+    Copies of one state give bitwise the same result as the single call (no cross-talk in
+    the vectorized indexing). For distinct states the agreement is only at the level of
+    the Newton tolerance (newton_tol = 1e-12: measured differences up to 1.8e-12 m in q),
+    not bitwise: the batched Newton loop in ``positions`` stops when the worst state has
+    converged, so a state that alone would have stopped one iteration earlier (with
+    |C| just below the tolerance) gets one more update in the batch.
     """
+    z = np.full((5, 1), 0.0123)
+    v = np.full((5, 1), 0.3)
+    loads = np.tile([[1000.0, -500.0]], (5, 1))
+    batch = solver.dynamics(z, v, loads)
+    one = solver.dynamics(z[:1], v[:1], loads[:1])
+    for name in ('q', 'qd', 'qdd', 'lam'):
+        for j in range(5):
+            assert np.array_equal(getattr(one, name)[0], getattr(batch, name)[j]), name
+
     rng = np.random.default_rng(1)
     N = 16
     z = rng.uniform(-0.05, 0.05, (N, 1))
     v = rng.uniform(-0.5, 0.5, (N, 1))
     loads = rng.uniform(-3000, 3000, (N, 2))
     batch = solver.dynamics(z, v, loads)
+    tol = solver.newton_tol
     for i in range(N):
         one = solver.dynamics(z[i:i + 1], v[i:i + 1], loads[i:i + 1])
-        np.testing.assert_allclose(one.q, batch.q[i:i + 1], rtol=0, atol=1e-14)
-        np.testing.assert_allclose(one.qd, batch.qd[i:i + 1], rtol=0, atol=1e-13)
-        np.testing.assert_allclose(one.qdd, batch.qdd[i:i + 1], rtol=1e-11, atol=1e-11)
-        np.testing.assert_allclose(one.lam, batch.lam[i:i + 1], rtol=1e-11, atol=1e-9)
+        # position error ≲ 10 newton_tol; it propagates to q̇, q̈, λ through O(1..1e3) factors
+        np.testing.assert_allclose(one.q, batch.q[i:i + 1], rtol=0, atol=10 * tol)
+        np.testing.assert_allclose(one.qd, batch.qd[i:i + 1], rtol=0, atol=10 * tol)
+        np.testing.assert_allclose(one.qdd, batch.qdd[i:i + 1], rtol=0, atol=1e3 * tol)
+        np.testing.assert_allclose(one.lam, batch.lam[i:i + 1], rtol=0, atol=1e5 * tol)

@@ -46,22 +46,27 @@ class NodewiseBlackBox(om.ExplicitComponent):
                              desc="this axle's multibody suspension (the black box)")
         self.options.declare('fd_form', default='forward', values=('forward', 'central'))
         self.options.declare('fd_step', default=1e-6, types=float,
-                             desc='relative FD step (OpenMDAO step_calc="rel_avg")')
+                             desc='absolute FD step, in the SI units of every input')
 
     def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str]) -> None:
         """FD partials of each output (with ``outputs[name]`` values per node) w.r.t. each
-        node-wise scalar input, with per-node block sparsity and a fixed coloring."""
+        node-wise scalar input, with per-node block sparsity and a fixed coloring.
+
+        The step is absolute and the same for every input: OpenMDAO's colored FD takes
+        the step of the first input for all columns, so a relative step sized for the
+        forces (~1e-3 N) would also be applied to the wheel travel (in m).
+        """
         nn = self.options['num_nodes']
+        form, step = self.options['fd_form'], self.options['fd_step']
         self._nodewise = {}
-        self.declare_coloring(wrt=inputs, method='fd', form=self.options['fd_form'],
-                              step=self.options['fd_step'], show_summary=False)
+        self.declare_coloring(wrt=inputs, method='fd', form=form, step=step,
+                              show_summary=False)
         for of, width in outputs.items():
             rows = np.arange(nn * width)
             cols = np.repeat(np.arange(nn), width)
             for wrt in inputs:
-                self.declare_partials(of, wrt, rows=rows, cols=cols, method='fd',
-                                      form=self.options['fd_form'], step=self.options['fd_step'],
-                                      step_calc='rel_avg', minimum_step=1e-8)
+                self.declare_partials(of, wrt, rows=rows, cols=cols, method='fd', form=form,
+                                      step=step, step_calc='abs')
                 self._nodewise[of, wrt] = (rows, cols)
 
     def compute_fd_sparsity(self, method: str = 'fd', num_full_jacs: int = 2,

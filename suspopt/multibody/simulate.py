@@ -51,12 +51,21 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
                        method: str = 'partitioned', t_eval: np.ndarray | None = None,
                        rtol: float = 1e-10, atol: float = 1e-12,
                        baumgarte: tuple[float, float] = (10.0, 10.0),
-                       max_step: float = np.inf) -> MechanismTrajectory:
+                       max_step: float = np.inf, q_guess: np.ndarray | None = None,
+                       max_evaluations: int = 200_000) -> MechanismTrajectory:
     """Simulate a mechanism from consistent initial conditions built from the independent
-    coordinates ``q_ind0`` and rates ``qd_ind0`` (absolute values, shape (dof,))."""
+    coordinates ``q_ind0`` and rates ``qd_ind0`` (absolute values, shape (dof,)).
+
+    ``q_guess`` (all coordinates, shape (n,)) starts the initial position analysis instead
+    of the reference pose: it selects the assembly branch when the start is far from it.
+    A run that needs more than ``max_evaluations`` right-hand sides (the step size
+    collapses, typically at a singular configuration where C_q loses rank) stops with a
+    :class:`MultibodyError` instead of grinding on.
+    """
     q_ind0 = np.atleast_1d(np.asarray(q_ind0, dtype=float))
     qd_ind0 = np.atleast_1d(np.asarray(qd_ind0, dtype=float))
-    st0 = solver.consistent_state(q_ind0[None], qd_ind0[None])
+    guess0 = None if q_guess is None else np.asarray(q_guess, dtype=float).reshape(1, -1)
+    st0 = solver.consistent_state(q_ind0[None], qd_ind0[None], guess0)
     ind, dof, n = solver.ind, solver.dof, solver.n
     t_eval = np.linspace(*t_span, 201) if t_eval is None else np.asarray(t_eval, dtype=float)
 
@@ -93,8 +102,19 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
     else:
         raise ValueError(f"method must be 'partitioned' or 'baumgarte', got {method!r}")
 
-    sol = solve_ivp(rhs, t_span, y0, method='DOP853', t_eval=t_eval, rtol=rtol, atol=atol,
-                    max_step=max_step)
+    count = [0]
+
+    def guarded(t: float, y: np.ndarray) -> np.ndarray:
+        count[0] += 1
+        if count[0] > max_evaluations:
+            raise MultibodyError(
+                f'{solver.mechanism.name}: simulation stalled at t = {t:.6g} after '
+                f'{max_evaluations} evaluations (step size collapsed; near a singular '
+                'configuration?)')
+        return rhs(t, y)
+
+    sol = solve_ivp(guarded, t_span, y0, method='DOP853', t_eval=t_eval, rtol=rtol,
+                    atol=atol, max_step=max_step)
     if sol.status != 0:
         raise MultibodyError(f'{solver.mechanism.name}: simulation failed at '
                              f't = {sol.t[-1]:.4g}: {sol.message}')

@@ -143,9 +143,6 @@ class PlanarMultibodySolver:
                 f'{mechanism.name}: singular constraint Jacobian at the reference pose '
                 '(redundant or locked joints, or the independent coordinates cannot drive '
                 'the mechanism)')
-        if not self.positions_residual_ok(self.q0[None]):
-            raise ConfigError(f'{mechanism.name}: the joints are not assembled at the reference '
-                              'pose (a joint point differs between its two bodies)')
 
     # ---------------------------------------------------------------- kinematics
     def _ext(self, q: np.ndarray) -> np.ndarray:
@@ -174,9 +171,6 @@ class PlanarMultibodySolver:
             C[:, 2 * self.nj:] = (q3[:, self.fixed] - self.q0.reshape(self.nb, 3)[self.fixed]
                                   ).reshape(N, -1)
         return C
-
-    def positions_residual_ok(self, q: np.ndarray) -> bool:
-        return bool(np.all(np.abs(self.constraints(q)) < 1e-9))
 
     def constraint_jacobian(self, q: np.ndarray, arms=None) -> np.ndarray:
         """``C_q``, shape (N, m, n)."""

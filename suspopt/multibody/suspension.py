@@ -9,6 +9,7 @@ and the time-marching integrator call these two methods, so both integrate one m
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,15 +44,20 @@ class SuspensionModule:
         self.tyre_load = s.load_names.index(roles['tyre_load'])
         self.marker_ref = s.marker_reference()
         self.ind0 = s.q0[s.ind[0]]
+        self.time_s = 0.0  # wall time spent inside this module (benchmarks)
 
     def kinematics(self, z_W: np.ndarray, v_W: np.ndarray,
                    guess: np.ndarray | None = None) -> ModuleKinematics:
         """Position and velocity analysis at N wheel-travel states (arrays of shape (N,))."""
+        t0 = time.perf_counter()
         s = self.solver
-        st = s.consistent_state(np.asarray(z_W, dtype=float)[:, None] + self.ind0,
-                                np.asarray(v_W, dtype=float)[:, None], guess)
-        pos = s.marker_positions(st.q) - self.marker_ref
-        vel = s.marker_velocities(st.q, st.qd)
+        try:
+            st = s.consistent_state(np.asarray(z_W, dtype=float)[:, None] + self.ind0,
+                                    np.asarray(v_W, dtype=float)[:, None], guess)
+            pos = s.marker_positions(st.q) - self.marker_ref
+            vel = s.marker_velocities(st.q, st.qd)
+        finally:
+            self.time_s += time.perf_counter() - t0
         return ModuleKinematics(q_U=pos[:, self.spring, 1], qd_U=vel[:, self.spring, 1],
                                 q_W=pos[:, self.wheel, 1], qd_W=vel[:, self.wheel, 1], state=st)
 
@@ -59,13 +65,17 @@ class SuspensionModule:
                  F_T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Augmented-form dynamics (eq. 11) under ``-F_S`` on the spring point and ``+F_T``
         on the contact patch: wheel-travel acceleration (N,) and joint reactions (N, nj, 2)."""
+        t0 = time.perf_counter()
         s = self.solver
         loads = np.zeros((state.q.shape[0], len(s.load_names)))
         loads[:, self.suspension_load] = F_S  # its direction points down: force = -F_S up
         loads[:, self.tyre_load] = F_T
-        state.qdd, state.lam = s.solve_augmented(state.q, state.qd,
-                                                 s.generalized_forces(state.q, loads),
-                                                 Cq=state.Cq)
+        try:
+            state.qdd, state.lam = s.solve_augmented(state.q, state.qd,
+                                                     s.generalized_forces(state.q, loads),
+                                                     Cq=state.Cq)
+        finally:
+            self.time_s += time.perf_counter() - t0
         return state.qdd[:, s.ind[0]], s.joint_reactions(state.lam)
 
     def constraint_residual(self, state: MultibodyState) -> float:

@@ -1,0 +1,60 @@
+"""Timing helpers shared by the benchmark scripts: medians over repeats, Markdown tables."""
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import subprocess
+import tempfile
+from contextlib import contextmanager
+from typing import Iterable
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open('/proc/cpuinfo') as fh:
+            names = [line.split(':', 1)[1].strip() for line in fh if line.startswith('model name')]
+        if names:
+            cpu = names[0]
+    except OSError:
+        pass
+    return f'{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}'
+
+
+@contextmanager
+def fresh_cache():
+    """A temporary, empty coloring cache (to measure the one-time coloring cost)."""
+    old = os.environ.get('SUSPOPT_CACHE_DIR')
+    with tempfile.TemporaryDirectory(prefix='suspopt-bench-cache-') as tmp:
+        os.environ['SUSPOPT_CACHE_DIR'] = tmp
+        try:
+            yield tmp
+        finally:
+            if old is None:
+                os.environ.pop('SUSPOPT_CACHE_DIR', None)
+            else:
+                os.environ['SUSPOPT_CACHE_DIR'] = old
+
+
+def stats(values: Iterable[float]) -> str:
+    v = list(values)
+    if not v:
+        return '—'
+    if len(v) == 1:
+        return f'{v[0]:.3g}'
+    return f'{statistics.median(v):.3g} ({min(v):.3g}–{max(v):.3g})'
+
+
+def table(rows: list[tuple[str, list[float]]], header=('quantity', 'median (min–max)')) -> str:
+    out = [f'| {header[0]} | {header[1]} |', '|---|---|']
+    out += [f'| {name} | {stats(vals)} |' for name, vals in rows]
+    return '\n'.join(out)
+
+
+def git_revision() -> str:
+    try:
+        return subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return 'unknown'

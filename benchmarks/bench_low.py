@@ -1,0 +1,101 @@
+"""Benchmark: low-fidelity optimization (issue 5), side by side with the CasADi peer.
+
+    python benchmarks/bench_low.py [--repeat 3] [--segments 80] [--no-peer]
+
+Prints, for suspopt: the one-time total-coloring cost (empty cache) and, over repeats with
+the cached coloring, setup (building the Dymos/OpenMDAO problem), initial guess (time
+marching), solve (IPOPT, including the model evaluations and colored total derivatives),
+total, IPOPT iterations and evaluations; and for the hand-written CasADi direct collocation
+of the same problem (benchmarks/casadi_peer.py): build, solve, total and its optimum.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import fresh_cache, git_revision, machine, stats, table  # noqa: E402
+
+from suspopt.config import DESIGN_NAMES, StudyConfig  # noqa: E402
+from suspopt.problem import VehicleProblem  # noqa: E402
+from suspopt.study import resolve_scales  # noqa: E402
+from suspopt.timemarching import simulate  # noqa: E402
+
+
+def run_once(cfg: StudyConfig, scales) -> dict:
+    t0 = time.perf_counter()
+    vp = VehicleProblem(cfg, 'low', scales)
+    t1 = time.perf_counter()
+    vp.set_design(cfg.design.initial())
+    vp.set_initial_guess(simulate(cfg, 'low', cfg.design.initial(), rtol=1e-7, atol=1e-10))
+    t2 = time.perf_counter()
+    res = vp.solve()
+    t3 = time.perf_counter()
+    vp.cleanup()
+    assert res.success, res.status
+    return {'setup': t1 - t0, 'guess': t2 - t1, 'coloring': res.times['coloring_s'],
+            'solve': t3 - t2 - res.times['coloring_s'], 'total': t3 - t0,
+            'iterations': res.iterations, 'fevals': res.function_evaluations,
+            'gevals': res.gradient_evaluations, 'design': res.design, 'f': res.objective}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument('--repeat', type=int, default=3)
+    ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
+    ap.add_argument('--order', type=int, default=5)
+    ap.add_argument('--no-peer', action='store_true')
+    args = ap.parse_args()
+    cfg = StudyConfig()
+    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
+                                                        segments=args.segments,
+                                                        order=args.order))
+    scales = resolve_scales(cfg)
+    print(f'# low-fidelity optimize, {args.segments} x {args.order} grid — {machine()}, '
+          f'suspopt {git_revision()}\n')
+    with fresh_cache():
+        cold = run_once(cfg, scales)
+        warm = [run_once(cfg, scales) for _ in range(args.repeat)]
+    print(f"one-time total coloring (empty cache): {cold['coloring']:.2f} s; first run total "
+          f"{cold['total']:.2f} s\n")
+    rows = [(f'{k} [s]' if k not in ('iterations', 'fevals', 'gevals') else k,
+             [r[k] for r in warm])
+            for k in ('setup', 'guess', 'solve', 'total', 'iterations', 'fevals', 'gevals')]
+    print(f'suspopt, cached coloring, {args.repeat} runs:\n')
+    print(table(rows))
+    x = warm[-1]['design']
+    print('\noptimum: ' + ', '.join(f'{n} = {x[n]:.2f}' for n in DESIGN_NAMES)
+          + f", f = {warm[-1]['f']:.7f}")
+    if args.no_peer:
+        return
+    try:
+        import casadi_peer
+    except ImportError as err:  # casadi is a benchmark-only extra: pip install -e '.[bench]'
+        print(f'\n(CasADi peer skipped: {err})')
+        return
+    peer = [casadi_peer.solve_peer(segments=args.segments, order=args.order, scales=scales)
+            for _ in range(args.repeat)]
+    print(f'\nCasADi peer (hand-written direct collocation, exact Hessian), {args.repeat} runs:\n')
+    print(table([('build [s]', [p['build_time_s'] for p in peer]),
+                 ('solve [s]', [p['solve_time_s'] for p in peer]),
+                 ('total [s]', [p['total_time_s'] for p in peer]),
+                 ('iterations', [p['iterations'] for p in peer])]))
+    px = peer[-1]['design']
+    print('\npeer optimum: ' + ', '.join(f'{n} = {px[n]:.2f}' for n in DESIGN_NAMES)
+          + f", f = {peer[-1]['objective']:.7f}")
+    dx = max(abs(x[n] / px[n] - 1.0) for n in DESIGN_NAMES)
+    print(f'max relative design difference suspopt vs peer: {dx:.2e}; '
+          f"f difference {abs(warm[-1]['f'] - peer[-1]['objective']):.2e}")
+    ratio = [w['total'] for w in warm]
+    peer_total = sorted(p['total_time_s'] for p in peer)[len(peer) // 2]
+    print(f'suspopt total / peer total (medians): '
+          f"{sorted(ratio)[len(ratio) // 2] / peer_total:.1f}x "
+          f"(setup + solve without the time-marching guess: "
+          f"{stats([w['setup'] + w['solve'] for w in warm])} s)")
+
+
+if __name__ == '__main__':
+    main()
