@@ -1,6 +1,6 @@
 """Benchmark: low-fidelity optimization (issue 5), side by side with the CasADi peer.
 
-    python benchmarks/bench_low.py [--repeat 3] [--segments 80] [--no-peer]
+    python benchmarks/bench_low.py [--repeat 3] [--segments 80] [--normalization paper] [--no-peer]
 
 Prints, for suspopt: the one-time total-coloring cost (empty cache) and, over repeats with
 the cached coloring, setup (building the Dymos/OpenMDAO problem), initial guess (time
@@ -48,14 +48,17 @@ def main() -> None:
     ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
     ap.add_argument('--order', type=int, default=5)
     ap.add_argument('--no-peer', action='store_true')
+    ap.add_argument('--normalization', choices=('reference', 'paper'), default='reference')
     args = ap.parse_args()
     cfg = StudyConfig()
     cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
                                                         segments=args.segments,
-                                                        order=args.order))
+                                                        order=args.order),
+                      objective=dataclasses.replace(cfg.objective,
+                                                    normalization=args.normalization))
     scales = resolve_scales(cfg)
-    print(f'# low-fidelity optimize, {args.segments} x {args.order} grid — {machine()}, '
-          f'suspopt {git_revision()}\n')
+    print(f'# low-fidelity optimize, {args.segments} x {args.order} grid, '
+          f'{args.normalization} normalization — {machine()}, suspopt {git_revision()}\n')
     with fresh_cache():
         cold = run_once(cfg, scales)
         warm = [run_once(cfg, scales) for _ in range(args.repeat)]

@@ -160,8 +160,8 @@ class ISO8608Road(RoadProfile):
     """A random road of ISO 8608 class ``road_class`` as a sum of ``n_waves`` cosines.
 
     Displacement PSD ``G_d(n) = G_d(n0) (n/n0)^-2`` with ``n0 = 0.1`` cycle/m, sampled on
-    ``n_waves`` equally spaced spatial frequencies in ``[n_min, n_max]`` cycle/m with random
-    phases from ``seed`` (the usual harmonic-superposition method). ``n_max`` defaults to
+    ``n_waves`` equal frequency bins of ``[n_min, n_max]`` cycle/m, one cosine per bin with
+    the bin's exact power and a random phase from ``seed`` (harmonic superposition). ``n_max`` defaults to
     1 cycle/m, i.e. 10 Hz at 10 m/s, which the default collocation grid resolves; raise it
     together with the number of segments. The first ``fade_in`` metres fade in with a
     half-cosine window so that the zero initial state of SPEC §1 is consistent.
@@ -176,10 +176,13 @@ class ISO8608Road(RoadProfile):
     fade_in: float = 2.0
 
     def _waves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        n = np.linspace(self.n_min, self.n_max, self.n_waves)
-        dn = (self.n_max - self.n_min) / max(self.n_waves - 1, 1)
+        """One cosine per frequency bin: at the bin's middle, carrying the bin's exact power
+        ∫ G_d dn = G_d(n0) n0² (1/a - 1/b), so the variance is exact for any bin count."""
+        edges = np.linspace(self.n_min, self.n_max, self.n_waves + 1)
+        n = 0.5 * (edges[:-1] + edges[1:])
         g0 = ISO8608_CLASSES[self.road_class.upper()]
-        amp = np.sqrt(2.0 * g0 * (n / 0.1) ** -2 * dn)
+        power = g0 * 0.1**2 * (1.0 / edges[:-1] - 1.0 / edges[1:])
+        amp = np.sqrt(2.0 * power)
         phase = np.random.default_rng(self.seed).uniform(0.0, 2.0 * np.pi, self.n_waves)
         return 2.0 * np.pi * n, amp, phase
 

@@ -15,7 +15,7 @@ from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp
 from suspopt.models.forces import SuspensionForceComp, TyreForceComp
 from suspopt.models.objective import ObjectiveIntegrandComp, WeightedObjectiveComp
 from suspopt.models.wheel import WheelDynamicsComp
-from suspopt.road import CosineBumps, ISO8608Road, RoadInputComp, SmoothStep
+from suspopt.road import ISO8608_CLASSES, CosineBumps, ISO8608Road, RoadInputComp, SmoothStep
 
 NN = 7
 
@@ -95,3 +95,18 @@ def test_road_profiles_match_formula():
     h, _ = wheel_road_inputs(road, np.array([0.6, 0.6 + 2.984 / 10.0]), 10.0, (0.0, 2.984))
     np.testing.assert_allclose(h[0, 0], 0.05)
     np.testing.assert_allclose(h[1, 1], 0.05)
+
+
+def test_iso8608_road_has_the_class_variance():
+    """The random road's height variance over the band equals the integral of the ISO
+    8608 PSD, G_d(n0) n0² (1/n_min - 1/n_max), and four times more per class letter."""
+    s = np.linspace(50.0, 10050.0, 100001)  # long drive, after the fade-in
+    variances = {}
+    for cls in 'BC':
+        road = ISO8608Road(road_class=cls, seed=7)
+        variances[cls] = np.var(road.r(s))
+        expected = ISO8608_CLASSES[cls] * 0.1**2 * (1.0 / road.n_min - 1.0 / road.n_max)
+        assert abs(variances[cls] / expected - 1.0) < 0.05, (cls, variances[cls], expected)
+    assert abs(variances['C'] / variances['B'] - 4.0) < 1e-9  # same seed: same shape
+    road = ISO8608Road(road_class='C', seed=7, fade_in=2.0)
+    assert road.r(np.array([0.0]))[0] == 0.0 and road.dr_ds(np.array([0.0]))[0] == 0.0
