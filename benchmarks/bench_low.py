@@ -13,33 +13,20 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import fresh_cache, git_revision, machine, stats, table  # noqa: E402
+from _common import fresh_cache, git_revision, machine, stats, table, timed_optimize  # noqa: E402
 
 from suspopt.config import DESIGN_NAMES, StudyConfig  # noqa: E402
-from suspopt.problem import VehicleProblem  # noqa: E402
 from suspopt.study import resolve_scales  # noqa: E402
-from suspopt.timemarching import simulate  # noqa: E402
 
 
 def run_once(cfg: StudyConfig, scales) -> dict:
-    t0 = time.perf_counter()
-    vp = VehicleProblem(cfg, 'low', scales)
-    t1 = time.perf_counter()
-    vp.set_design(cfg.design.initial())
-    vp.set_initial_guess(simulate(cfg, 'low', cfg.design.initial(), rtol=1e-7, atol=1e-10))
-    t2 = time.perf_counter()
-    res = vp.solve()
-    t3 = time.perf_counter()
-    vp.cleanup()
-    assert res.success, res.status
-    return {'setup': t1 - t0, 'guess': t2 - t1, 'coloring': res.times['coloring_s'],
-            'solve': t3 - t2 - res.times['coloring_s'], 'total': t3 - t0,
-            'iterations': res.iterations, 'fevals': res.function_evaluations,
-            'gevals': res.gradient_evaluations, 'design': res.design, 'f': res.objective}
+    out = timed_optimize(cfg, 'low', scales, cfg.design.initial())
+    out.pop('problem').cleanup()
+    assert out['success'], 'IPOPT did not converge'
+    return out
 
 
 def main() -> None:

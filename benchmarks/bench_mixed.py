@@ -13,57 +13,49 @@ import argparse
 import dataclasses
 import statistics
 import sys
-import time
+from contextlib import contextmanager
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import fresh_cache, git_revision, machine, table  # noqa: E402
+from _common import fresh_cache, git_revision, machine, table, timed_optimize  # noqa: E402
 
 from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.problem import VehicleProblem  # noqa: E402
+from suspopt.multibody.components import SuspensionDynamicsComp, SuspensionKinematicsComp  # noqa: E402
 from suspopt.study import optimize, resolve_scales  # noqa: E402
-from suspopt.timemarching import simulate  # noqa: E402
 
 
-def _count_compute(comp_cls):
-    """Count compute() calls of a component class (black-box queries)."""
-    counter = {'n': 0}
-    orig = comp_cls.compute
+@contextmanager
+def _count_compute(*comp_classes):
+    """Count compute() calls of component classes (black-box queries)."""
+    counts = {cls: 0 for cls in comp_classes}
+    originals = {cls: cls.compute for cls in comp_classes}
 
-    def compute(self, inputs, outputs):
-        counter['n'] += 1
-        return orig(self, inputs, outputs)
+    def counting(cls):
+        def compute(self, inputs, outputs):
+            counts[cls] += 1
+            return originals[cls](self, inputs, outputs)
+        return compute
 
-    comp_cls.compute = compute
-    return counter
+    for cls in comp_classes:
+        cls.compute = counting(cls)
+    try:
+        yield counts
+    finally:
+        for cls, orig in originals.items():
+            cls.compute = orig
 
 
-def run_once(cfg, scales, start, guess, fidelity='mixed') -> dict:
-    t0 = time.perf_counter()
-    vp = VehicleProblem(cfg, fidelity, scales)
-    t1 = time.perf_counter()
-    vp.set_design(start)
-    vp.set_initial_guess(guess)
-    mbd0 = sum(m.time_s for m in vp.modules)
-    res = vp.solve()
-    t2 = time.perf_counter()
-    mbd = sum(m.time_s for m in vp.modules) - mbd0
-    out = {'setup': t1 - t0, 'coloring': res.times['coloring_s'],
-           'solve': t2 - t1 - res.times['coloring_s'], 'iterations': res.iterations,
-           'gevals': res.gradient_evaluations, 'fevals': res.function_evaluations,
-           'calls': res.multibody_calls, 'mbd_s': mbd, 'f': res.objective}
-    out['total'] = out['setup'] + out['solve']
+def run_once(cfg, scales, start, fidelity='mixed') -> dict:
+    out = timed_optimize(cfg, fidelity, scales, start)
+    vp = out.pop('problem')
     if fidelity == 'mixed':
         # black-box calls per Jacobian: one colored total-derivative evaluation
-        from suspopt.multibody.components import (SuspensionDynamicsComp,
-                                                  SuspensionKinematicsComp)
-        kin, dyn = _count_compute(SuspensionKinematicsComp), _count_compute(SuspensionDynamicsComp)
         drv = vp.driver
         drv._tjac = None
         drv._totals()
-        kin['n'] = dyn['n'] = 0
-        drv._totals()
-        out['per_jacobian'] = (kin['n'], dyn['n'])
+        with _count_compute(SuspensionKinematicsComp, SuspensionDynamicsComp) as counts:
+            drv._totals()
+        out['per_jacobian'] = (counts[SuspensionKinematicsComp], counts[SuspensionDynamicsComp])
     vp.cleanup()
     return out
 
@@ -82,16 +74,15 @@ def main() -> None:
     with fresh_cache():
         low = optimize(cfg, 'low', scales=scales)
         start = low['design']
-        guess = simulate(cfg, 'mixed', start, rtol=1e-7, atol=1e-10)
-        cold = run_once(cfg, scales, start, guess)
-        runs = [run_once(cfg, scales, start, guess) for _ in range(args.repeat)]
-        low_guess = simulate(cfg, 'low', cfg.design.initial(), rtol=1e-7, atol=1e-10)
-        lows = [run_once(cfg, scales, cfg.design.initial(), low_guess, 'low')
+        cold = run_once(cfg, scales, start)
+        runs = [run_once(cfg, scales, start) for _ in range(args.repeat)]
+        lows = [run_once(cfg, scales, cfg.design.initial(), 'low')
                 for _ in range(args.repeat)]
     print(f"one-time total coloring (empty cache): {cold['coloring']:.2f} s\n")
     print(f'mixed fidelity, cached coloring, {args.repeat} runs:\n')
     print(table([
         ('setup [s]', [r['setup'] for r in runs]),
+        ('guess (time marching) [s]', [r['guess'] for r in runs]),
         ('solve [s]', [r['solve'] for r in runs]),
         ('total [s]', [r['total'] for r in runs]),
         ('IPOPT iterations', [r['iterations'] for r in runs]),

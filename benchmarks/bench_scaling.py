@@ -12,27 +12,19 @@ import argparse
 import dataclasses
 import statistics
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import fresh_cache, git_revision, machine  # noqa: E402
+from _common import fresh_cache, git_revision, machine, timed_optimize  # noqa: E402
 
 from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.problem import VehicleProblem  # noqa: E402
 from suspopt.study import resolve_scales  # noqa: E402
-from suspopt.timemarching import simulate  # noqa: E402
 
 
-def solve(cfg, scales, fidelity, start, guess):
-    vp = VehicleProblem(cfg, fidelity, scales)
-    vp.set_design(start)
-    vp.set_initial_guess(guess)
-    t = time.perf_counter()
-    res = vp.solve()
-    wall = time.perf_counter() - t - res.times['coloring_s']
-    vp.cleanup()
-    return res, wall
+def solve(cfg, scales, fidelity, start):
+    out = timed_optimize(cfg, fidelity, scales, start)
+    out.pop('problem').cleanup()
+    return out
 
 
 def main() -> None:
@@ -52,19 +44,18 @@ def main() -> None:
             cfg = base.replace(transcription=dataclasses.replace(base.transcription, segments=n))
             start = {'low': x0}
             for fid in ('low', 'mixed'):
-                guess = simulate(cfg, fid, start[fid], rtol=1e-7, atol=1e-10)
-                first, _ = solve(cfg, scales, fid, start[fid], guess)
-                runs = [solve(cfg, scales, fid, start[fid], guess) for _ in range(args.repeat)]
-                walls = [w for _, w in runs]
-                res = runs[-1][0]
+                first = solve(cfg, scales, fid, start[fid])
+                runs = [solve(cfg, scales, fid, start[fid]) for _ in range(args.repeat)]
+                walls = [r['solve'] for r in runs]
+                res = runs[-1]
                 med = statistics.median(walls)
-                print(f"| {n} | {n * 5 + 1} | {fid} | {first.times['coloring_s']:.2f} | "
-                      f'{med:.2f} ({min(walls):.2f}–{max(walls):.2f}) | {res.iterations} | '
-                      f'{1e3 * med / max(res.gradient_evaluations, 1):.0f} | '
-                      f'{res.objective:.5f}{"" if res.success else " (not converged)"} |',
+                print(f"| {n} | {n * 5 + 1} | {fid} | {first['coloring']:.2f} | "
+                      f"{med:.2f} ({min(walls):.2f}–{max(walls):.2f}) | {res['iterations']} | "
+                      f"{1e3 * med / max(res['gevals'], 1):.0f} | "
+                      f"{res['f']:.5f}{'' if res['success'] else ' (not converged)'} |",
                       flush=True)
                 if fid == 'low':
-                    start['mixed'] = res.design
+                    start['mixed'] = res['design']
 
 
 if __name__ == '__main__':
