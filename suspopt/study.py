@@ -125,14 +125,19 @@ def result_dict(config: StudyConfig, res: SolveResult, wall: float, start: dict[
     }
 
 
-def initial_guess(config: StudyConfig, fidelity: str,
-                  design: dict[str, float]) -> Trajectory | None:
-    """The collocation's starting trajectory: time marching at ``design`` (or None for the
-    zero guess, ``transcription.initial_guess = 'zero'``)."""
+def initial_guess(config: StudyConfig, design: dict[str, float]) -> Trajectory | None:
+    """The collocation's starting trajectory, or None for the zero guess
+    (``transcription.initial_guess = 'zero'``).
+
+    It is the half car's time marching at ``design`` for both fidelities: the states are
+    the same quantities, and from the low-fidelity optimum the mixed-fidelity solve takes
+    14 IPOPT iterations from this start as from the mixed model's own time marching,
+    which costs ten times more (0.24 s against 2.6 s).
+    """
     if config.transcription.initial_guess == 'zero':
         return None
     # a starting point only: the collocation error (~1e-4) is far above these tolerances
-    return simulate(config, fidelity, design, rtol=1e-5, atol=1e-8)
+    return simulate(config, 'low', design, rtol=1e-5, atol=1e-8)
 
 
 def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | None = None,
@@ -154,7 +159,7 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
     try:
         problem.set_design(start)
         if guess == 'auto':
-            guess = initial_guess(config, fidelity, start)
+            guess = initial_guess(config, start)
         if guess != 'keep':
             problem.set_initial_guess(guess)
         res = problem.solve(optimize=True)
@@ -200,7 +205,7 @@ def evaluate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
     try:
         problem.set_design(design)
         if guess == 'auto':
-            guess = initial_guess(config, fidelity, design)
+            guess = initial_guess(config, design)
         if guess != 'keep':
             problem.set_initial_guess(guess)
         res = problem.solve(optimize=False)
@@ -255,7 +260,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, progress: Progress | 
 
         say('step 1/2: low-fidelity model at the initial design (evaluation), then its '
             'optimization from there')
-        guess = initial_guess(config, 'low', designs['initial'])
+        guess = initial_guess(config, designs['initial'])
         study['evaluations']['low/initial'] = evaluate(
             config, 'low', designs['initial'], scales=scales, problem=low, label='initial',
             guess=guess)

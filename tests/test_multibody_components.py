@@ -225,3 +225,25 @@ def test_declared_sparsity_is_the_true_one(cases, module, kind, nn):
             assert np.array_equal(declared, block_mask(nn, width)), (o, w)
     # and the coloring built from it needs one FD solve per input variable
     assert comp._coloring_info.coloring.total_solves() == len(ins)
+
+
+@pytest.mark.parametrize('kind', ['kin', 'dyn'])
+def test_vectorized_fd_scatter_equals_openmdao_per_column_scatter(module, kind, monkeypatch):
+    """The black boxes' FD scheme only changes how a colored result is written into the
+    sub-Jacobians; OpenMDAO's own FiniteDifference gives the identical Jacobian."""
+    from openmdao.approximation_schemes.finite_difference import FiniteDifference
+
+    from suspopt.multibody import components
+
+    Comp, ins, outs = KIN if kind == 'kin' else DYN
+    nn = 12
+    x = inputs(nn, seed=3)
+    p, _ = make_problem(Comp, nn, module, x, ins)
+    J_fast = p.compute_totals(of=outs, wrt=ins, return_format='flat_dict')
+    monkeypatch.setattr(components, '_NodewiseFiniteDifference', FiniteDifference)
+    p, comp = make_problem(Comp, nn, module, x, ins)
+    assert type(comp._get_approx_scheme('fd')) is FiniteDifference
+    J_om = p.compute_totals(of=outs, wrt=ins, return_format='flat_dict')
+    assert sum(np.count_nonzero(v) for v in J_om.values()) >= nn * len(outs)
+    for key, val in J_om.items():
+        np.testing.assert_allclose(J_fast[key], val, rtol=1e-13, atol=0.0, err_msg=str(key))

@@ -22,12 +22,75 @@ module.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import openmdao.api as om
-from openmdao.utils.coloring import _ColSparsityJac
+from openmdao.approximation_schemes.finite_difference import FiniteDifference
+from openmdao.jacobians.dictionary_jacobian import _CheckingJacobian
+from openmdao.jacobians.subjac import OMCOOSubjac
+from openmdao.utils.coloring import Coloring, _ColSparsityJac
 
 from suspopt.errors import MultibodyError
 from suspopt.multibody.suspension import SuspensionModule
+
+
+class _NodewiseFiniteDifference(FiniteDifference):
+    """OpenMDAO's finite differences, unchanged (same perturbations, same runs of the black
+    box), except how a colored run's result reaches the sparse sub-Jacobians: OpenMDAO
+    sets it column by column, each column searching the whole sub-Jacobian (quadratic in
+    the number of nodes: ~1.4 s per mixed-fidelity solve at 400 nodes); with the
+    node-wise coloring one color is all nodes of one input, so the result is the
+    sub-Jacobians' data in one gather."""
+
+    _per_color = False
+
+    def compute_approximations(self, system, jac) -> None:
+        if isinstance(jac, _CheckingJacobian) or not self._wrt_meta:
+            return super().compute_approximations(system, jac)
+        if jac._col_mapper is None:
+            jac._setup_index_maps(system)
+        self._per_color = True
+        try:
+            for item in self.compute_approx_col_iter(
+                    system, under_cs=system._outputs._under_complex_step):
+                if isinstance(item[1], dict):
+                    self._set_color(system, jac, *item)
+                else:
+                    jac.set_col(system, *item)
+        finally:
+            self._per_color = False
+
+    def _colored_column_iter(self, system, colored_approx_groups):
+        if not self._per_color or system._num_par_fd > 1:
+            yield from super()._colored_column_iter(system, colored_approx_groups)
+            return
+        results_array = system._residuals.asarray(copy=True)
+        for data, jcols, vec_ind_list, nzrows, seed_vars in colored_approx_groups:
+            with system._relevance.seeds_active(fwd_seeds=seed_vars):
+                result = self._run_point(system, vec_ind_list, data, results_array, False)
+            result = self._transform_result(result) * self._get_multiplier(data)
+            yield jcols, {'result': result.copy(), 'nzrows': nzrows}
+
+    @staticmethod
+    def _set_color(system, jac, jcols, color) -> None:
+        result, mapper = color['result'], jac._col_mapper
+        wrt, first = mapper.index2key_rel(jcols[0])
+        last_wrt, last = mapper.index2key_rel(jcols[-1])
+        contiguous = last_wrt == wrt and first == 0 and last == len(jcols) - 1
+        for of, start, end, *_ in system._get_jac_ofs():
+            sub = jac._subjacs.get((of, wrt))
+            if sub is None:
+                continue
+            if (contiguous and isinstance(sub, OMCOOSubjac)
+                    and sub.info['shape'][1] == len(jcols)):
+                sub.info['val'][:] = result[start + sub.rows]
+            else:  # general case: OpenMDAO's own per-column assignment
+                for jcol, rows in zip(jcols, color['nzrows']):
+                    col = np.zeros(len(result))
+                    col[rows] = result[rows]
+                    jac.set_col(system, jcol, col)
+                return
 
 
 class NodewiseBlackBox(om.ExplicitComponent):
@@ -47,6 +110,11 @@ class NodewiseBlackBox(om.ExplicitComponent):
         self.options.declare('fd_form', default='forward', values=('forward', 'central'))
         self.options.declare('fd_step', default=1e-6, types=float,
                              desc='absolute FD step, in the SI units of every input')
+
+    def _get_approx_scheme(self, method):
+        if method == 'fd' and 'fd' not in self._approx_schemes:
+            self._approx_schemes['fd'] = _NodewiseFiniteDifference()
+        return super()._get_approx_scheme(method)
 
     def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str]) -> None:
         """FD partials of each output (with ``outputs[name]`` values per node) w.r.t. each
@@ -87,6 +155,37 @@ class NodewiseBlackBox(om.ExplicitComponent):
                         col[ostart + rows[cols == k]] = 1.0
                 jac.set_col(self, wstart + k, col)
         return jac.get_sparsity()
+
+    def _compute_coloring(self, recurse=False, **overrides):
+        """The FD partial coloring, built from the known structure: one color per input
+        variable (all its nodes perturbed at once). OpenMDAO's general graph coloring of
+        the same sparsity takes ~0.5 s per component at 400 nodes, on every new problem."""
+        info = self._coloring_info
+        info.update(overrides)
+        if info['method'] is None and self._approx_schemes:
+            info['method'] = list(self._approx_schemes)[0]
+        if info.coloring is None and info.static is None:
+            info.dynamic = True
+        t0 = time.perf_counter()
+        sparsity, sp_info = self.compute_sparsity()
+        coo = sparsity.tocoo()
+        order = np.lexsort((coo.row, coo.col))
+        rows, cols = coo.row[order], coo.col[order]
+        ncols = sparsity.shape[1]
+        col2rows = np.split(rows, np.searchsorted(cols, np.arange(1, ncols)))
+        groups = [list(range(start, end)) for _, start, end, *_ in
+                  self._get_jac_wrts(info.wrt_matches)]
+        for group in groups:  # a color's columns must not share a row
+            grows = np.concatenate([col2rows[c] for c in group])
+            if np.unique(grows).size != grows.size:
+                raise RuntimeError(f'{self.msginfo}: outputs are not node-wise in the inputs')
+        coloring = Coloring(sparsity=sparsity)
+        coloring._fwd = (groups, [r.tolist() if r.size else None for r in col2rows])
+        coloring._meta['coloring_time'] = time.perf_counter() - t0
+        coloring._resolver = self._resolver
+        if not self._finalize_coloring(coloring, info, sp_info, time.perf_counter() - t0):
+            return [None]
+        return [coloring]
 
 
 class SuspensionKinematicsComp(NodewiseBlackBox):
