@@ -36,7 +36,7 @@ def main() -> None:
     scales = resolve_scales(base)
     print(f'# cost against grid size (order 5) — {machine()}, suspopt {git_revision()}\n')
     print('| segments | nodes | model | coloring [s] (once) | solve [s] median (min–max) | '
-          'iterations | solve / iteration [ms] | f |')
+          'iterations | solve / Jacobian evaluation [ms] | f |')
     print('|---|---|---|---|---|---|---|---|')
     x0 = base.design.initial()
     with fresh_cache():

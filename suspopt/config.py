@@ -115,7 +115,8 @@ class TranscriptionConfig:
     segments: int = field(default=80, metadata=_check('positive'))
     order: int = field(default=5, metadata=_check('positive'))
     initial_guess: str = field(default='simulate',
-                               metadata={'doc': 'simulate (time marching) or zero'})
+                               metadata={'doc': "simulate (the half car's time marching at "
+                                                'the start design) or zero'})
 
 
 @dataclass(frozen=True)
@@ -510,7 +511,7 @@ def default_config_toml() -> str:
         '[transcription]                # Dymos Radau collocation (SPEC §6)',
         f'segments = {t.segments}                 # SPEC: 64 (0.15 % off here); paper: 16 (30 % off)',
         f'order = {t.order}',
-        f'initial_guess = {tv(t.initial_guess)}   # states from time marching, or "zero"',
+        f'initial_guess = {tv(t.initial_guess)}   # states from half-car time marching, or "zero"',
         '',
         '[optimizer]                    # IPOPT',
         f'max_iter = {op.max_iter}',
