@@ -58,7 +58,7 @@ class _NonzerosOnlyArray(np.ndarray):
     """
 
     def __setitem__(self, key, value):
-        if key == slice(None) and np.isscalar(value) and value == 0:
+        if type(key) is slice and key == slice(None) and np.isscalar(value) and value == 0:
             return
         super().__setitem__(key, value)
 
