@@ -5,10 +5,15 @@ OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available her
 
 * design variables, bounds and constraints are passed in driver scaling (``ref``/``ref0``);
 * the constraint Jacobian is given to IPOPT as a sparse matrix whose structure is the
-  total-derivative coloring's sparsity; values come from one colored, unscaled
-  total-derivative evaluation per iterate (always with the same ``of``/``wrt`` lists in
-  the driver's order, so they line up with the coloring), scattered by color with one
-  vectorized assignment, and driver-scaled on the nonzeros only;
+  sparsity of a forward total-derivative coloring of the *constraints*; values come from
+  one colored, unscaled total-derivative evaluation per iterate (always with the same
+  ``of``/``wrt`` lists in the driver's order, so they line up with the coloring),
+  scattered by color with one vectorized assignment, and driver-scaled on the nonzeros
+  only;
+* the objective gradient comes from one reverse solve on the same linearization: an
+  objective that depends on every node (a quadrature) would make a forward coloring of
+  the whole Jacobian useless, and a bidirectional one costs far more to compute
+  (needs the problem set up with ``mode='auto'``, which enables both directions);
 * the Hessian is approximated by IPOPT (limited-memory BFGS);
 * a model evaluation that fails (``AnalysisError``, non-finite values) is reported to IPOPT
   as an evaluation error, so IPOPT backtracks instead of aborting;
@@ -21,18 +26,19 @@ OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available her
 """
 from __future__ import annotations
 
-import math
 import signal
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import cyipopt
 import numpy as np
 import openmdao.api as om
 from openmdao.core.driver import Driver, RecordingDebugging
 from openmdao.core.total_jac import _TotalJacInfo
+from openmdao.utils import coloring as coloring_mod
 
 #: IPOPT's return statuses (IpReturnCodes.h).
 IPOPT_STATUS = {
@@ -52,9 +58,9 @@ _INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means
 class _NonzerosOnlyArray(np.ndarray):
     """The dense total Jacobian, minus OpenMDAO's ``J[:] = 0`` before every evaluation.
 
-    With a forward coloring every structural nonzero is rewritten by its color's scatter
-    and every other entry stays at its initial zero, so re-zeroing the whole dense array
-    (4801 x 4804 doubles at 80 x 5, ~30 ms) is wasted work.
+    With a coloring (forward, reverse or both, without subtractions) every structural
+    nonzero is rewritten by exactly one color's scatter and every other entry stays at its
+    initial zero, so re-zeroing the whole dense array (~50 ms at 80 x 5) is wasted work.
     """
 
     def __setitem__(self, key, value):
@@ -68,15 +74,14 @@ class _VectorizedColoredTotalJac(_TotalJacInfo):
 
     OpenMDAO writes each column of a colored solve into the dense Jacobian in a Python
     loop over columns (about 65 ms per Jacobian for the 80 x 5 grid); this writes all the
-    columns of one color with a single fancy assignment. Same values, same layout. With a
-    purely forward coloring the dense array is zeroed once, not before every evaluation.
+    columns of one color with a single fancy assignment. Same values, same layout. Under a
+    coloring the dense array is zeroed once, not before every evaluation.
     """
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        if (self.simul_coloring is not None and list(self.modes) == ['fwd']
-                and self.jac_scratch is None and self.comm.size == 1
-                and not self.simul_coloring._subtractions):
+        if (self.simul_coloring is not None and self.jac_scratch is None
+                and self.comm.size == 1 and not self.simul_coloring._subtractions):
             self.J = self.J.view(_NonzerosOnlyArray)
 
     def simul_coloring_jac_setter(self, inds, mode, meta):
@@ -92,6 +97,28 @@ class _VectorizedColoredTotalJac(_TotalJacInfo):
         rows, cols = cache[key]
         deriv_idxs, _, _ = self.sol2jac_map[mode]
         self.J[rows, cols] = self.output_vec[mode].asarray()[deriv_idxs][rows]
+
+
+@contextmanager
+def _linearized(model):
+    """Skip the next linearization: the model was just linearized at this point."""
+    model._linearize = lambda *args, **kwargs: None
+    try:
+        yield
+    finally:
+        del model._linearize
+
+
+@contextmanager
+def _solving_in(problem, mode: str):
+    """Let OpenMDAO compute a coloring in ``mode`` on a problem set up with mode='auto'."""
+    meta = problem._metadata
+    saved = meta['mode']
+    meta['mode'] = mode
+    try:
+        yield
+    finally:
+        meta['mode'] = saved
 
 
 @dataclass
@@ -124,8 +151,9 @@ class IpoptDriver(Driver):
         self.supports['equality_constraints'] = True
         self.supports['two_sided_constraints'] = True
         self.supports['linear_constraints'] = False
-        self.supports['simultaneous_derivatives'] = True
-        self.supports['total_jac_sparsity'] = True
+        # colorings are handled here (constraints only), not by OpenMDAO's driver
+        self.supports['simultaneous_derivatives'] = False
+        self.supports['total_jac_sparsity'] = False
         self.supports['multiple_objectives'] = False
         self.supports['active_set'] = False
         self.supports['integer_design_vars'] = False
@@ -139,6 +167,8 @@ class IpoptDriver(Driver):
         self.n_gradient_evals = 0
         self.last_error: str | None = None
         self._stop_requested = False
+        self._con_coloring: coloring_mod.Coloring | None = None
+        self._coloring_request: dict[str, int] | None = None
 
     def _declare_options(self) -> None:
         self.options.declare('max_iter', default=3000, types=int, lower=0)
@@ -218,18 +248,40 @@ class IpoptDriver(Driver):
         return np.broadcast_to(1.0 if scaler is None else np.asarray(scaler, dtype=float),
                                (size,)).copy()
 
+    def use_constraint_coloring(self, coloring: coloring_mod.Coloring | None) -> None:
+        """Use this forward coloring of the constraint Jacobian (e.g. from a cache)."""
+        self._con_coloring = coloring
+
+    def declare_constraint_coloring(self, num_full_jacs: int = 1) -> None:
+        """Compute a forward coloring of the constraint Jacobian on the first solve, with
+        randomized partials on their declared sparsity (``num_full_jacs`` Jacobians)."""
+        self._coloring_request = {'num_full_jacs': num_full_jacs}
+
+    def total_coloring(self) -> coloring_mod.Coloring | None:
+        """The forward coloring of the constraint Jacobian: the one given to
+        :meth:`use_constraint_coloring`, or computed once here after
+        :meth:`declare_constraint_coloring`; None without either (dense Jacobian)."""
+        self._layout()
+        if self._con_coloring is None and self._coloring_request and self._con_names:
+            problem = self._problem()
+            info = self._coloring_info
+            with _solving_in(problem, 'fwd'):
+                self._con_coloring = coloring_mod.compute_total_coloring(
+                    problem, mode='fwd', of=self._con_names, wrt=self._wrt,
+                    num_full_jacs=self._coloring_request['num_full_jacs'], tol=info['tol'],
+                    orders=info['orders'], driver=self)
+        coloring = self._con_coloring
+        if coloring is not None and tuple(coloring._shape) != (self.m, self.n):
+            raise RuntimeError(f'{self.msginfo}: total coloring shape {coloring._shape} does '
+                               f'not match the constraint Jacobian ({self.m}, {self.n}); the '
+                               'cached coloring is stale')
+        return coloring
+
     def _sparsity(self, coloring) -> tuple[np.ndarray, np.ndarray]:
         """Constraint-Jacobian structure (rows, cols) in IPOPT's layout."""
         if coloring is not None:
-            if tuple(coloring._shape) != (self._n_obj + self.m, self.n):
-                raise RuntimeError(f'{self.msginfo}: total coloring shape {coloring._shape} '
-                                   f'does not match the problem ({self._n_obj + self.m}, '
-                                   f'{self.n}); the cached coloring is stale')
-            rows, cols = coloring._nzrows, coloring._nzcols
-            keep = rows >= self._n_obj
-            return rows[keep] - self._n_obj, cols[keep]
-        rows, cols = np.nonzero(np.ones((self.m, self.n), dtype=bool))
-        return rows, cols
+            return coloring._nzrows, coloring._nzcols
+        return np.nonzero(np.ones((self.m, self.n), dtype=bool))
 
     # ------------------------------------------------------------------ evaluations
     def _x(self) -> np.ndarray:
@@ -277,28 +329,65 @@ class IpoptDriver(Driver):
             return
         self.n_gradient_evals += 1
         try:
-            J = self._totals()
+            g, J = self._totals()
         except om.AnalysisError as err:
             self.last_error = str(err)
             raise cyipopt.CyIpoptEvaluationError() from None
-        rows = self._n_obj + self._jrows
-        grad = J[0, :] * (self._row_scaler[0] / self._col_scaler)
-        jac = J[rows, self._jcols] * (self._row_scaler[rows] / self._col_scaler[self._jcols])
+        rows, cols = self._jrows, self._jcols
+        grad = g * (self._row_scaler[0] / self._col_scaler)
+        jac = (J[rows, cols] * (self._row_scaler[self._n_obj + rows] / self._col_scaler[cols])
+               if J is not None else np.zeros(0))
         if not (np.all(np.isfinite(grad)) and np.all(np.isfinite(jac))):
             self.last_error = 'the total derivatives contain NaN or inf'
             raise cyipopt.CyIpoptEvaluationError()
         self._grad, self._jac = grad, jac
         self._x_jac = x.copy()
 
-    def _totals(self) -> np.ndarray:
-        """Unscaled total Jacobian (dense layout, colored solves), always in the driver's
-        of/wrt order so that it lines up with the coloring."""
+    def _totals(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """Unscaled objective gradient (n,) and constraint Jacobian (m, n) (dense layout,
+        colored forward solves, always in the driver's of/wrt order so that it lines up
+        with the coloring): one linearization, then the constraint solves, then one
+        reverse solve for the objective."""
+        problem = self._problem()
         if self._tjac is None:
-            problem = self._problem()
-            self._tjac = _VectorizedColoredTotalJac(
-                problem, self._of, self._wrt, 'array',
-                approx=problem.model._owns_approx_jac, driver_scaling=False)
-        return self._tjac.compute_totals()
+            self._alljac = _TotalJacInfo(problem, self._of, self._wrt, 'array',
+                                         driver_scaling=False)
+            coloring = self.total_coloring()
+            meta = None
+            if coloring is not None:
+                meta = coloring_mod.ColoringMeta()
+                meta.coloring = coloring
+            self._tjac = (_VectorizedColoredTotalJac(
+                problem, self._con_names, self._wrt, 'array', driver_scaling=False,
+                coloring_info=meta) if self._con_names else None)
+            self._ojac = _TotalJacInfo(problem, self._of[:1], self._wrt, 'array',
+                                       driver_scaling=False)
+        self._linearize_model()
+        with _linearized(problem.model):
+            J = self._tjac.compute_totals() if self._tjac is not None else None
+            g = self._ojac.compute_totals()[0].copy()
+        return g, J
+
+    def _linearize_model(self) -> None:
+        """Linearize every system that the objective or a constraint depends on, once per
+        iterate. (Each OpenMDAO total-derivative computation linearizes only the systems
+        relevant to its own of/wrt, so the constraint Jacobian's would miss the objective's
+        path, and a second linearization would repeat every black-box FD.)"""
+        model = self._problem().model
+        tj = self._alljac
+        model._dinputs.set_val(0.0)
+        model._doutputs.set_val(0.0)
+        model._dresiduals.set_val(0.0)
+        model._tot_jac = tj
+        try:
+            with tj._totjac_context(), tj.relevance.active(model.linear_solver.use_relevance()):
+                with tj.relevance.all_seeds_active():
+                    solver = model._linear_solver
+                    with model._scaled_context_all():
+                        model._linearize(sub_do_ln=solver._linearize_children())
+                    solver._linearize()
+        finally:
+            model._tot_jac = None
 
     # cyipopt callbacks
     def objective(self, x: np.ndarray) -> float:
@@ -359,7 +448,7 @@ class IpoptDriver(Driver):
         problem = self._problem()
         self.iter_count = 0
         self._total_jac = None
-        self._tjac = None
+        self._tjac = self._ojac = self._alljac = None
         self._x_run = self._x_jac = None
         self._eval_failed = False
         self.history = []
@@ -373,8 +462,7 @@ class IpoptDriver(Driver):
             self._run_solve_nonlinear()
         self.iter_count += 1
         self._layout()
-        coloring = problem.get_total_coloring(self._coloring_info, run_model=False)
-        self._jrows, self._jcols = self._sparsity(coloring)
+        self._jrows, self._jcols = self._sparsity(self.total_coloring())
 
         self._nlp = nlp = cyipopt.Problem(n=self.n, m=self.m, problem_obj=self,
                                           lb=self._lb, ub=self._ub, cl=self._cl, cu=self._cu)

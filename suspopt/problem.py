@@ -5,13 +5,16 @@ Radau pseudospectral phase around :class:`~suspopt.models.vehicle.HalfCarODE` or
 :class:`~suspopt.models.vehicle.MixedFidelityODE`, with
 
 * states ``z_C, v_C, theta_C, omega_C, z_W1, v_W1, z_W2, v_W2`` from the zero initial
-  state, and ``J`` (the four objective integrals, rate ``dJ_dt``) from zero;
+  state;
+* the four objective integrals ``J_k`` by the grid's own Radau quadrature of the
+  integrands ``dJ_dt`` (:class:`~suspopt.models.objective.ObjectiveQuadratureComp`):
+  the value integrated states would reach, without their variables and defects;
 * the design variables as Dymos parameters scaled to [0, 1] by their bounds
   (ref0 = lower, ref = upper), the car's constants as fixed parameters;
 * the objective ``f = Σ w_k J_k(T) / s_k`` computed after the phase;
 * :class:`~suspopt.driver.IpoptDriver` solving states and design together with the
-  colored sparse total Jacobian; the coloring is cached by model structure
-  (:mod:`suspopt.cache`).
+  sparse constraint Jacobian (forward coloring) and the objective gradient (one reverse
+  solve); the coloring is cached by model structure (:mod:`suspopt.cache`).
 
 With ``optimize_design=False`` the design is held fixed and IPOPT only solves the
 collocation equations: this is how one design is *evaluated* by collocation.
@@ -28,12 +31,13 @@ from typing import Any, Callable
 import dymos as dm
 import numpy as np
 import openmdao.api as om
+from dymos.transcriptions.grid_data import GridData
 
 from suspopt import cache
 from suspopt.config import DESIGN_NAMES, StudyConfig
 from suspopt.driver import IpoptDriver, IterationInfo
 from suspopt.errors import ModelError
-from suspopt.models.objective import WeightedObjectiveComp
+from suspopt.models.objective import ObjectiveQuadratureComp, WeightedObjectiveComp
 from suspopt.models.vehicle import HalfCarODE, MixedFidelityODE
 from suspopt.multibody.suspension import SuspensionModule
 from suspopt.timemarching import Trajectory
@@ -58,6 +62,15 @@ TIMESERIES = {
               'delta_1', 'delta_2', 'q_U1', 'q_U2', 'q_W1', 'q_W2',
               'reactions_1', 'reactions_2'),
 }
+
+
+def radau_quadrature_weights(segments: int, order: int, duration: float) -> np.ndarray:
+    """Quadrature weight [s] of every node of the compressed Radau grid (uniform segments):
+    the LGR weights times each segment's dt/dτ, zero at segment ends (not collocation
+    points). ``weights @ g(nodes)`` is what Radau collocation integrates ``x' = g`` to."""
+    gd = GridData(num_segments=segments, transcription='radau-ps',
+                  transcription_order=order, compressed=True)
+    return gd.node_weight * gd.node_dptau_dstau * (0.5 * duration)
 
 
 def vehicle_parameters(config: StudyConfig, fidelity: str) -> dict[str, tuple[float, str]]:
@@ -143,8 +156,6 @@ class VehicleProblem:
         for name, rate, units, ref in STATE_DEFS:
             phase.add_state(name, rate_source=rate, units=units, fix_initial=True,
                             targets=[name], ref=ref)
-        phase.add_state('J', rate_source='dJ_dt', shape=(4,), units=None, fix_initial=True,
-                        targets=[], ref=np.asarray(self.scales), defect_ref=np.asarray(self.scales))
         for name in DESIGN_NAMES:
             dv = getattr(config.design, name)
             phase.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[name], opt=True,
@@ -153,11 +164,15 @@ class VehicleProblem:
         for name, (val, units) in vehicle_parameters(config, fidelity).items():
             phase.add_parameter(name, val=val, units=units, opt=False, static_target=True,
                                 targets=[name])
-        for name in TIMESERIES[fidelity]:
+        for name in TIMESERIES[fidelity] + ('dJ_dt',):
             phase.add_timeseries_output(name)
         p.model.add_subsystem('phase', phase)
+        self._quadrature = radau_quadrature_weights(tr.segments, tr.order,
+                                                    config.maneuver.horizon)
+        p.model.add_subsystem('quadrature', ObjectiveQuadratureComp(weights=self._quadrature))
         p.model.add_subsystem('objective', WeightedObjectiveComp())
-        p.model.connect('phase.timeseries.J', 'objective.J', src_indices=om.slicer[-1, :])
+        p.model.connect('phase.timeseries.dJ_dt', 'quadrature.dJ_dt')
+        p.model.connect('quadrature.J', 'objective.J')
         p.model.add_objective('objective.f')
 
         drv = self.driver = p.driver = IpoptDriver()
@@ -173,10 +188,10 @@ class VehicleProblem:
         self._cached_coloring = cache.load(self.cache_key) if use_cache else None
         self.coloring_from_cache = self._cached_coloring is not None
         if self._cached_coloring is not None:
-            drv.use_fixed_coloring(self._cached_coloring)
+            drv.use_constraint_coloring(self._cached_coloring)
         else:
             # one Jacobian with randomized partials (declared sparsity) detects the sparsity
-            drv.declare_coloring(num_full_jacs=1, show_summary=False, show_sparsity=False)
+            drv.declare_constraint_coloring(num_full_jacs=1)
 
         self.recorder_path = None
         if recorder is not None:
@@ -190,12 +205,20 @@ class VehicleProblem:
             p.add_recorder(rec)
             p.recording_options['includes'] = ['*']
 
-        p.setup(mode='fwd', check=False)
+        # 'auto' sets up both derivative directions: the driver colors the constraint
+        # Jacobian forward and gets the objective gradient (dense in the states) by one
+        # reverse solve
+        p.setup(mode='auto', check=False)
         p.set_val('objective.weights', np.asarray(config.objective.weights))
         p.set_val('objective.scales', np.asarray(self.scales))
         phase.set_time_val(initial=0.0, duration=config.maneuver.horizon)
         self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
         p.final_setup()
+        grid = phase.options['transcription'].grid_data
+        if not np.allclose(grid.node_ptau, GridData(
+                num_segments=tr.segments, transcription='radau-ps', transcription_order=tr.order,
+                compressed=True).node_ptau):  # the quadrature must be the phase's own grid
+            raise ModelError('internal error: objective quadrature does not match the grid')
         self.times = {'setup_s': time.perf_counter() - t0}
 
     # ---------------------------------------------------------------- values
@@ -222,17 +245,14 @@ class VehicleProblem:
         for name, *_ in STATE_DEFS:
             vals = np.zeros(2) if traj is None else np.array(traj[name][keep])
             self.phase.set_state_val(name, vals, time_vals=t)
-        J = np.zeros((2, 4)) if traj is None else np.stack(
-            [traj[f'J{k}'][keep] for k in range(1, 5)], axis=1)
-        self.phase.set_state_val('J', J, time_vals=t)
-        for name in [s[0] for s in STATE_DEFS] + ['J']:
+        for name, *_ in STATE_DEFS:
             path = f'phase.states:{name}'
             vals = self.problem.get_val(path)
             vals[0] = 0.0
             self.problem.set_val(path, vals)
 
     def terms(self) -> np.ndarray:
-        return np.array(self.problem.get_val('objective.J'))
+        return np.array(self.problem.get_val('quadrature.J'))
 
     def objective(self) -> float:
         return float(self.problem.get_val('objective.f')[0])
@@ -246,9 +266,6 @@ class VehicleProblem:
         for name in TIMESERIES[self.fidelity]:
             val = p.get_val(ts + name)
             values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
-        J = p.get_val(ts + 'J')
-        for k in range(4):
-            values[f'J{k + 1}'] = J[:, k]
         wheel = 'z_W' if self.fidelity == 'low' else 'q_W'
         values['wheel_z1'], values['wheel_z2'] = values[wheel + '1'], values[wheel + '2']
         info = {'fidelity': self.fidelity, 'method': 'collocation'}
@@ -257,7 +274,7 @@ class VehicleProblem:
                 m.constraint_residual(m.kinematics(values[f'z_W{i + 1}'],
                                                    values[f'v_W{i + 1}']).state)
                 for i, m in enumerate(self.modules))
-        return Trajectory(t=t, values=values, J=J[-1].copy(), info=info)
+        return Trajectory(t=t, values=values, J=self.terms(), info=info)
 
     def multibody_calls(self) -> dict[str, int]:
         """Batched multibody solver calls so far (position analyses, augmented solves)."""
@@ -282,12 +299,11 @@ class VehicleProblem:
         except om.AnalysisError as err:
             raise ModelError(f'model evaluation failed at the starting point: {err}') from None
         t1 = time.perf_counter()
-        coloring = p.get_total_coloring(drv._coloring_info, run_model=False)
+        coloring = drv.total_coloring()
         t2 = time.perf_counter()
         if self._cached_coloring is None and coloring is not None:
             # keep it for the next solves of this problem, and for other problems
             self._cached_coloring = coloring
-            drv.use_fixed_coloring(coloring)
             if self.use_cache:
                 cache.store(self.cache_key, coloring)
         p.run_driver()

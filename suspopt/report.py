@@ -47,12 +47,10 @@ def read_trajectory(recorder: str | Path, label: str) -> Trajectory | None:
         if prom.startswith(ts):
             val = np.asarray(meta['val'])
             values[prom[len(ts):]] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
-    J = values.pop('J')
-    for k in range(4):
-        values[f'J{k + 1}'] = J[:, k]
+    J = np.asarray(case.get_val('quadrature.J'))
     wheel = 'q_W' if 'q_W1' in values else 'z_W'
     values['wheel_z1'], values['wheel_z2'] = values[wheel + '1'], values[wheel + '2']
-    return Trajectory(t=values.pop('time'), values=values, J=J[-1].copy(),
+    return Trajectory(t=values.pop('time'), values=values, J=J,
                       info={'method': 'collocation', 'label': label})
 
 

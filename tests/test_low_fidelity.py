@@ -68,33 +68,34 @@ def test_paper_grid_is_inaccurate(cfg, scales):
 
 
 def test_total_sparsity_holds_away_from_start(cfg, scales):
-    """Dense total Jacobian at a random state/design point has no nonzero outside the
-    coloring's sparsity (with zero states, dF_S/dk is 0 and a naive detection misses it)."""
+    """Dense constraint Jacobian at a random state/design point has no nonzero outside the
+    coloring's sparsity (with zero states, dF_S/dk is 0 and a naive detection misses it),
+    and the driver's values (colored forward solves, objective gradient by a reverse
+    solve on the same linearization) equal OpenMDAO's uncolored totals."""
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=6))
     with VehicleProblem(small, 'low', scales) as vp:
         vp.set_design(small.design.initial())
         vp.set_initial_guess(None)
         vp.solve(optimize=False)  # computes (and caches) the coloring at this zero-ish point
-        coloring = vp.driver._coloring_info.coloring
+        drv = vp.driver
+        coloring = drv.total_coloring()
         p = vp.problem
         rng = np.random.default_rng(1)
         for name in p.driver._designvars:
             val = p.get_val(name)
             p.set_val(name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01) * 0.5)
         p.run_model()
-        J = p.driver._compute_totals(of=p.driver._get_ordered_nl_responses(),
-                                     wrt=list(p.driver._designvars), return_format='array',
-                                     driver_scaling=False)
-    # recompute densely with coloring off
+        g, J = drv._totals()
+        # recompute densely, uncolored, by OpenMDAO alone
         with VehicleProblem(small, 'low', scales, use_cache=False) as dense:
-            dense.driver._coloring_info.coloring = None
-            dense.driver._coloring_info.dynamic = False
             for name in p.driver._designvars:
                 dense.problem.set_val(name, p.get_val(name))
             dense.problem.run_model()
             Jd = dense.problem.compute_totals(of=dense.driver._get_ordered_nl_responses(),
                                               wrt=list(dense.driver._designvars),
                                               return_format='array', coloring_info=False)
+    np.testing.assert_allclose(g, Jd[0], rtol=1e-9, atol=1e-12)
+    Jd = Jd[1:]  # the constraints
     pattern = np.zeros(Jd.shape, dtype=bool)
     pattern[coloring._nzrows, coloring._nzcols] = True
     outside = (np.abs(Jd) > 1e-12 * np.max(np.abs(Jd))) & ~pattern
@@ -151,7 +152,7 @@ def test_zero_start_with_fresh_coloring_reaches_same_optimum(cfg, scales, low_op
         res = vp.solve()
         traj = vp.timeseries()
     assert res.success
-    for name in ('z_C', 'v_C', 'theta_C', 'omega_C', 'z_W1', 'v_W1', 'z_W2', 'v_W2', 'J1'):
+    for name in ('z_C', 'v_C', 'theta_C', 'omega_C', 'z_W1', 'v_W1', 'z_W2', 'v_W2'):
         assert traj[name][0] == 0.0
     x = np.array([res.design[n] for n in DESIGN_NAMES])
     x_ref = np.array([low_optimum['design'][n] for n in DESIGN_NAMES])

@@ -14,9 +14,9 @@ TERMS = ('J1', 'J2', 'J3', 'J4')
 class ObjectiveIntegrandComp(NodeComponent):
     """Integrands of ``J_1..J_4`` (eq. 4): ``z''_C², theta''_C², z_W1², z_W2²``.
 
-    The output ``dJ_dt`` (num_nodes × 4) is the rate of the integrated state ``J``, so the
-    integrals are accumulated by the collocation itself (SPEC §5). The four terms have
-    different units; the vector is declared unitless and documented here instead.
+    The output ``dJ_dt`` (num_nodes × 4) is integrated over the horizon by
+    :class:`ObjectiveQuadratureComp` with the collocation's own quadrature (SPEC §5). The
+    four terms have different units; the vector is declared unitless and documented here.
     """
 
     def setup(self) -> None:
@@ -38,6 +38,33 @@ class ObjectiveIntegrandComp(NodeComponent):
     def compute_partials(self, inputs, partials) -> None:
         for wrt in ('zdd_C', 'thdd_C', 'z_W1', 'z_W2'):
             partials['dJ_dt', wrt] = 2.0 * inputs[wrt]
+
+
+class ObjectiveQuadratureComp(om.ExplicitComponent):
+    """The integrals ``J_k = ∫_0^T dJ_k/dt dt`` (eq. 4) by the transcription's quadrature.
+
+    ``weights`` (option, one per node) are the Radau (LGR) quadrature weights of the grid
+    times each segment's dt/dτ, zero at the segment ends that are not collocation points.
+    This is exactly the value an integrated state ``J' = dJ_dt`` would reach under Radau
+    collocation, without 4 × (number of nodes) extra NLP variables and defects: IPOPT's
+    KKT system of the 80 × 5 problem shrinks from 9604 to 6404 rows.
+    """
+
+    def initialize(self) -> None:
+        self.options.declare('weights', types=np.ndarray, desc='quadrature weight per node [s]')
+
+    def setup(self) -> None:
+        w = self.options['weights']
+        nn = w.size
+        self.add_input('dJ_dt', shape=(nn, 4), units=None, desc='integrands at the nodes')
+        self.add_output('J', shape=(4,), units=None, desc='J1..J4 over the horizon')
+        nodes = np.nonzero(w)[0]
+        rows = np.tile(np.arange(4), nodes.size)
+        cols = (4 * nodes[:, None] + np.arange(4)).ravel()
+        self.declare_partials('J', 'dJ_dt', rows=rows, cols=cols, val=np.repeat(w[nodes], 4))
+
+    def compute(self, inputs, outputs) -> None:
+        outputs['J'] = self.options['weights'] @ inputs['dJ_dt']
 
 
 class WeightedObjectiveComp(om.ExplicitComponent):
