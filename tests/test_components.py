@@ -13,8 +13,10 @@ from openmdao.utils.assert_utils import assert_check_partials
 
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp
 from suspopt.models.forces import SuspensionForceComp, TyreForceComp
-from suspopt.models.objective import ObjectiveIntegrandComp, WeightedObjectiveComp
+from suspopt.models.objective import (ObjectiveIntegrandComp, ObjectiveQuadratureComp,
+                                      WeightedObjectiveComp)
 from suspopt.models.wheel import WheelDynamicsComp
+from suspopt.problem import radau_quadrature_weights
 from suspopt.road import ISO8608_CLASSES, CosineBumps, ISO8608Road, RoadInputComp, SmoothStep
 
 NN = 7
@@ -43,6 +45,8 @@ COMPONENTS = {
     'wheel_dynamics': lambda: WheelDynamicsComp(num_nodes=NN),
     'objective_integrand': lambda: ObjectiveIntegrandComp(num_nodes=NN),
     'weighted_objective': lambda: WeightedObjectiveComp(),
+    'objective_quadrature': lambda: ObjectiveQuadratureComp(
+        weights=radau_quadrature_weights(2, 3, 5.0)),
     'road_two_bumps': lambda: RoadInputComp(num_nodes=NN, road=CosineBumps(), speed=10.0,
                                             offsets=(0.0, 2.984)),
     'road_step': lambda: RoadInputComp(num_nodes=NN, road=SmoothStep(position=5.0,
@@ -110,3 +114,21 @@ def test_iso8608_road_has_the_class_variance():
     assert abs(variances['C'] / variances['B'] - 4.0) < 1e-9  # same seed: same shape
     road = ISO8608Road(road_class='C', seed=7, fade_in=2.0)
     assert road.r(np.array([0.0]))[0] == 0.0 and road.dr_ds(np.array([0.0]))[0] == 0.0
+
+
+@pytest.mark.parametrize('segments, order', [(1, 3), (4, 5), (80, 5), (7, 6)])
+def test_radau_quadrature_is_exact_for_polynomials(segments, order):
+    """The objective's quadrature weights integrate t^k exactly for k <= 2 order - 2 (LGR
+    with ``order`` points), on the node times of Dymos' own compressed Radau grid."""
+    from dymos.transcriptions.grid_data import GridData
+    T = 5.0
+    w = radau_quadrature_weights(segments, order, T)
+    gd = GridData(num_segments=segments, transcription='radau-ps', transcription_order=order,
+                  compressed=True)
+    t = 0.5 * (gd.node_ptau + 1.0) * T
+    assert w.shape == t.shape and np.all(w >= 0.0)
+    for k in range(2 * order - 1):
+        np.testing.assert_allclose(w @ t**k, T ** (k + 1) / (k + 1), rtol=1e-12)
+    # a non-polynomial integrand converges: sin over the horizon
+    if segments >= 4:
+        np.testing.assert_allclose(w @ np.sin(t), 1.0 - np.cos(T), rtol=1e-9)
