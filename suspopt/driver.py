@@ -8,8 +8,8 @@ OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available her
   sparsity of a forward total-derivative coloring of the *constraints*; values come from
   one colored, unscaled total-derivative evaluation per iterate (always with the same
   ``of``/``wrt`` lists in the driver's order, so they line up with the coloring),
-  scattered by color with one vectorized assignment, and driver-scaled on the nonzeros
-  only;
+  scattered by color with one vectorized assignment straight into IPOPT's nonzeros (no
+  dense (m, n) array is written), and driver-scaled there;
 * the objective gradient comes from one reverse solve on the same linearization: an
   objective that depends on every node (a quadrature) would make a forward coloring of
   the whole Jacobian useless, and a bidirectional one costs far more to compute
@@ -55,12 +55,12 @@ IPOPT_STATUS = {
 _INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means "none"
 
 
-class _NonzerosOnlyArray(np.ndarray):
+class _IgnoreZeroing(np.ndarray):
     """The dense total Jacobian, minus OpenMDAO's ``J[:] = 0`` before every evaluation.
 
-    With a coloring (forward, reverse or both, without subtractions) every structural
-    nonzero is rewritten by exactly one color's scatter and every other entry stays at its
-    initial zero, so re-zeroing the whole dense array (~50 ms at 80 x 5) is wasted work.
+    Under :class:`_ColoredNonzerosTotalJac` the dense array is never written (the values go
+    straight to the nonzeros), so it stays the untouched ``np.zeros`` it was allocated as;
+    re-zeroing it (~50 ms at 80 x 5, 10^7 entries) would be the only touch.
     """
 
     def __setitem__(self, key, value):
@@ -69,34 +69,48 @@ class _NonzerosOnlyArray(np.ndarray):
         super().__setitem__(key, value)
 
 
-class _VectorizedColoredTotalJac(_TotalJacInfo):
-    """OpenMDAO's total Jacobian with the colored forward scatter vectorized.
+class _ColoredNonzerosTotalJac(_TotalJacInfo):
+    """OpenMDAO's forward-colored total Jacobian, gathered straight into its nonzeros.
 
-    OpenMDAO writes each column of a colored solve into the dense Jacobian in a Python
-    loop over columns (about 65 ms per Jacobian for the 80 x 5 grid); this writes all the
-    columns of one color with a single fancy assignment. Same values, same layout. Under a
-    coloring the dense array is zeroed once, not before every evaluation.
+    OpenMDAO writes each column of a colored solve into a dense (m, n) array in a Python
+    loop over columns, and the driver would then gather the nonzeros from it again. Here
+    each color's solution is scattered with one vectorized assignment into
+    :attr:`nonzeros`, ordered as the coloring's ``(_nzrows, _nzcols)`` (the IPOPT
+    structure); the dense array is neither written nor re-zeroed. Only for unscaled totals
+    in forward mode on one process, without unit conversions or coloring subtractions.
     """
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        if (self.simul_coloring is not None and self.jac_scratch is None
-                and self.comm.size == 1 and not self.simul_coloring._subtractions):
-            self.J = self.J.view(_NonzerosOnlyArray)
+        col = self.simul_coloring
+        if (col is None or self.jac_scratch is not None or self.comm.size > 1
+                or col._subtractions or self.has_scaling
+                or self._desvar_unit_scalers or self._resp_unit_scalers):
+            raise RuntimeError('internal error: colored nonzero gathering does not apply')
+        self.J = self.J.view(_IgnoreZeroing)
+        self.nonzeros = np.zeros(col._nzrows.size)
+        self._positions: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+    def _color_positions(self, inds) -> tuple[np.ndarray, np.ndarray]:
+        """(rows of the solution vector, positions in :attr:`nonzeros`) of one color."""
+        key = (inds[0], len(inds))
+        if key not in self._positions:
+            col = self.simul_coloring
+            row_col_map = col.get_row_col_map('fwd')
+            rows = [np.asarray(row_col_map[i], dtype=int) for i in inds]
+            cols = np.repeat(np.asarray(inds, dtype=int), [r.size for r in rows])
+            rows = np.concatenate(rows)
+            n = col._shape[1]
+            nz_keys = col._nzrows.astype(np.int64) * n + col._nzcols
+            order = np.argsort(nz_keys, kind='stable')
+            pos = order[np.searchsorted(nz_keys[order], rows.astype(np.int64) * n + cols)]
+            self._positions[key] = (rows, pos)
+        return self._positions[key]
 
     def simul_coloring_jac_setter(self, inds, mode, meta):
-        if mode != 'fwd' or self.jac_scratch is not None or self.comm.size > 1:
-            return super().simul_coloring_jac_setter(inds, mode, meta)
-        cache = self.__dict__.setdefault('_color_scatter', {})
-        key = (inds[0], len(inds))
-        if key not in cache:
-            row_col_map = self.simul_coloring.get_row_col_map(mode)
-            rows = [np.asarray(row_col_map[i], dtype=int) for i in inds]
-            cache[key] = (np.concatenate(rows),
-                          np.repeat(np.asarray(inds, dtype=int), [r.size for r in rows]))
-        rows, cols = cache[key]
+        rows, pos = self._color_positions(inds)
         deriv_idxs, _, _ = self.sol2jac_map[mode]
-        self.J[rows, cols] = self.output_vec[mode].asarray()[deriv_idxs][rows]
+        self.nonzeros[pos] = self.output_vec[mode].asarray()[deriv_idxs][rows]
 
 
 @contextmanager
@@ -329,44 +343,51 @@ class IpoptDriver(Driver):
             return
         self.n_gradient_evals += 1
         try:
-            g, J = self._totals()
+            g, jac = self._totals()
         except om.AnalysisError as err:
             self.last_error = str(err)
             raise cyipopt.CyIpoptEvaluationError() from None
-        rows, cols = self._jrows, self._jcols
         grad = g * (self._row_scaler[0] / self._col_scaler)
-        jac = (J[rows, cols] * (self._row_scaler[self._n_obj + rows] / self._col_scaler[cols])
-               if J is not None else np.zeros(0))
+        jac = jac * self._jac_scaler
         if not (np.all(np.isfinite(grad)) and np.all(np.isfinite(jac))):
             self.last_error = 'the total derivatives contain NaN or inf'
             raise cyipopt.CyIpoptEvaluationError()
         self._grad, self._jac = grad, jac
         self._x_jac = x.copy()
 
-    def _totals(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """Unscaled objective gradient (n,) and constraint Jacobian (m, n) (dense layout,
-        colored forward solves, always in the driver's of/wrt order so that it lines up
-        with the coloring): one linearization, then the constraint solves, then one
-        reverse solve for the objective."""
+    def _totals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unscaled objective gradient (n,) and the constraint Jacobian's values at the
+        IPOPT structure ``(_jrows, _jcols)``: one linearization, then the colored forward
+        solves of the constraints (always in the driver's of/wrt order, so that they line
+        up with the coloring), then one reverse solve for the objective."""
         problem = self._problem()
-        if self._tjac is None:
+        if self._ojac is None:
             self._alljac = _TotalJacInfo(problem, self._of, self._wrt, 'array',
                                          driver_scaling=False)
             coloring = self.total_coloring()
-            meta = None
-            if coloring is not None:
+            self._tjac = None
+            if self._con_names and coloring is not None:
                 meta = coloring_mod.ColoringMeta()
                 meta.coloring = coloring
-            self._tjac = (_VectorizedColoredTotalJac(
-                problem, self._con_names, self._wrt, 'array', driver_scaling=False,
-                coloring_info=meta) if self._con_names else None)
+                self._tjac = _ColoredNonzerosTotalJac(
+                    problem, self._con_names, self._wrt, 'array', driver_scaling=False,
+                    coloring_info=meta)
+            elif self._con_names:  # no coloring: dense
+                self._tjac = _TotalJacInfo(problem, self._con_names, self._wrt, 'array',
+                                           driver_scaling=False)
             self._ojac = _TotalJacInfo(problem, self._of[:1], self._wrt, 'array',
                                        driver_scaling=False)
         self._linearize_model()
         with _linearized(problem.model):
-            J = self._tjac.compute_totals() if self._tjac is not None else None
+            if self._tjac is None:
+                jac = np.zeros(0)
+            elif isinstance(self._tjac, _ColoredNonzerosTotalJac):
+                self._tjac.compute_totals()
+                jac = self._tjac.nonzeros
+            else:
+                jac = self._tjac.compute_totals()[self._jrows, self._jcols]
             g = self._ojac.compute_totals()[0].copy()
-        return g, J
+        return g, jac
 
     def _linearize_model(self) -> None:
         """Linearize every system that the objective or a constraint depends on, once per
@@ -463,6 +484,9 @@ class IpoptDriver(Driver):
         self.iter_count += 1
         self._layout()
         self._jrows, self._jcols = self._sparsity(self.total_coloring())
+        # driver scaling of the constraint Jacobian, on its nonzeros
+        self._jac_scaler = (self._row_scaler[self._n_obj + self._jrows]
+                            / self._col_scaler[self._jcols])
 
         self._nlp = nlp = cyipopt.Problem(n=self.n, m=self.m, problem_obj=self,
                                           lb=self._lb, ub=self._ub, cl=self._cl, cu=self._cu)
