@@ -72,7 +72,7 @@ def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float]) -> dict[
     vp = VehicleProblem(cfg, fidelity, scales)
     t1 = time.perf_counter()
     vp.set_design(start)
-    vp.set_initial_guess(initial_guess(cfg, start))
+    vp.set_initial_guess(initial_guess(cfg, fidelity, start))
     t2 = time.perf_counter()
     mbd0 = sum(m.time_s for m in vp.modules)
     res = vp.solve()

@@ -114,9 +114,10 @@ class TranscriptionConfig:
 
     segments: int = field(default=80, metadata=_check('positive'))
     order: int = field(default=5, metadata=_check('positive'))
-    initial_guess: str = field(default='simulate',
-                               metadata={'doc': "simulate (the half car's time marching at "
-                                                'the start design) or zero'})
+    initial_guess: str = field(default='auto',
+                               metadata={'doc': "auto (zero for the half car, simulate for "
+                                                "the mixed model), simulate (the half car's "
+                                                'time marching at the start design) or zero'})
 
 
 @dataclass(frozen=True)
@@ -356,8 +357,8 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
     elif obj.scales:
         errs.add('objective.scales', "only used with normalization = 'custom'")
     tr = cfg.transcription
-    if tr.initial_guess not in ('simulate', 'zero'):
-        errs.add('transcription.initial_guess', f"must be 'simulate' or 'zero', "
+    if tr.initial_guess not in ('auto', 'simulate', 'zero'):
+        errs.add('transcription.initial_guess', f"must be 'auto', 'simulate' or 'zero', "
                  f'got {tr.initial_guess!r}')
     if cfg.multibody.fd_form not in ('forward', 'central'):
         errs.add('multibody.fd_form', f"must be 'forward' or 'central', "
@@ -511,7 +512,8 @@ def default_config_toml() -> str:
         '[transcription]                # Dymos Radau collocation (SPEC §6)',
         f'segments = {t.segments}                 # SPEC: 64 (0.15 % off here); paper: 16 (30 % off)',
         f'order = {t.order}',
-        f'initial_guess = {tv(t.initial_guess)}   # states from half-car time marching, or "zero"',
+        f'initial_guess = {tv(t.initial_guess)}   # "auto": zero for the half car, its time '
+        'marching for the mixed model; "simulate"; "zero"',
         '',
         '[optimizer]                    # IPOPT',
         f'max_iter = {op.max_iter}',
