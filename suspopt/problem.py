@@ -31,7 +31,7 @@ from typing import Any, Callable
 import dymos as dm
 import numpy as np
 import openmdao.api as om
-from dymos.transcriptions.grid_data import GridData
+from dymos.utils.lgr import lgr
 
 from suspopt import cache
 from suspopt.config import DESIGN_NAMES, StudyConfig
@@ -64,13 +64,21 @@ TIMESERIES = {
 }
 
 
+def radau_grid(segments: int, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes (phase τ in [-1, 1]) and quadrature weights (in τ) of Dymos' compressed Radau
+    grid of ``segments`` uniform segments: each segment has the ``order`` LGR points and
+    its right end (weight zero: not a collocation point), which repeats the next segment's
+    first node. ``weights @ g(nodes)`` is what Radau collocation integrates ``x' = g`` to."""
+    x, w = lgr(order, include_endpoint=True)
+    ends = np.linspace(-1.0, 1.0, segments + 1)
+    half = 0.5 * np.diff(ends)[:, None]
+    return (ends[:-1, None] + half * (x + 1.0)).ravel(), (half * w).ravel()
+
+
 def radau_quadrature_weights(segments: int, order: int, duration: float) -> np.ndarray:
-    """Quadrature weight [s] of every node of the compressed Radau grid (uniform segments):
-    the LGR weights times each segment's dt/dτ, zero at segment ends (not collocation
-    points). ``weights @ g(nodes)`` is what Radau collocation integrates ``x' = g`` to."""
-    gd = GridData(num_segments=segments, transcription='radau-ps',
-                  transcription_order=order, compressed=True)
-    return gd.node_weight * gd.node_dptau_dstau * (0.5 * duration)
+    """Quadrature weight [s] of every node of the compressed Radau grid over ``duration``
+    (see :func:`radau_grid`)."""
+    return radau_grid(segments, order)[1] * (0.5 * duration)
 
 
 def vehicle_parameters(config: StudyConfig, fidelity: str) -> dict[str, tuple[float, str]]:
@@ -215,9 +223,9 @@ class VehicleProblem:
         self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
         p.final_setup()
         grid = phase.options['transcription'].grid_data
-        if not np.allclose(grid.node_ptau, GridData(
-                num_segments=tr.segments, transcription='radau-ps', transcription_order=tr.order,
-                compressed=True).node_ptau):  # the quadrature must be the phase's own grid
+        nodes = radau_grid(tr.segments, tr.order)[0]
+        if grid.node_ptau.shape != nodes.shape or not np.allclose(grid.node_ptau, nodes):
+            # the objective's quadrature must be the phase's own grid
             raise ModelError('internal error: objective quadrature does not match the grid')
         self.times = {'setup_s': time.perf_counter() - t0}
 

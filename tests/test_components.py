@@ -16,7 +16,7 @@ from suspopt.models.forces import SuspensionForceComp, TyreForceComp
 from suspopt.models.objective import (ObjectiveIntegrandComp, ObjectiveQuadratureComp,
                                       WeightedObjectiveComp)
 from suspopt.models.wheel import WheelDynamicsComp
-from suspopt.problem import radau_quadrature_weights
+from suspopt.problem import radau_grid, radau_quadrature_weights
 from suspopt.road import ISO8608_CLASSES, CosineBumps, ISO8608Road, RoadInputComp, SmoothStep
 
 NN = 7
@@ -119,7 +119,8 @@ def test_iso8608_road_has_the_class_variance():
 @pytest.mark.parametrize('segments, order', [(1, 3), (4, 5), (80, 5), (7, 6)])
 def test_radau_quadrature_is_exact_for_polynomials(segments, order):
     """The objective's quadrature weights integrate t^k exactly for k <= 2 order - 2 (LGR
-    with ``order`` points), on the node times of Dymos' own compressed Radau grid."""
+    with ``order`` points), on the node times of Dymos' own compressed Radau grid, and
+    suspopt's nodes are Dymos' nodes."""
     from dymos.transcriptions.grid_data import GridData
     T = 5.0
     w = radau_quadrature_weights(segments, order, T)
@@ -127,6 +128,7 @@ def test_radau_quadrature_is_exact_for_polynomials(segments, order):
                   compressed=True)
     t = 0.5 * (gd.node_ptau + 1.0) * T
     assert w.shape == t.shape and np.all(w >= 0.0)
+    np.testing.assert_allclose(radau_grid(segments, order)[0], gd.node_ptau, atol=1e-14)
     for k in range(2 * order - 1):
         np.testing.assert_allclose(w @ t**k, T ** (k + 1) / (k + 1), rtol=1e-12)
     # a non-polynomial integrand converges: sin over the horizon
