@@ -134,3 +134,46 @@ def test_radau_quadrature_is_exact_for_polynomials(segments, order):
     # a non-polynomial integrand converges: sin over the horizon
     if segments >= 4:
         np.testing.assert_allclose(w @ np.sin(t), 1.0 - np.cos(T), rtol=1e-9)
+
+
+def test_quadrature_equals_a_dymos_integrated_state():
+    """SPEC §5 accumulates J_k as integrated states (rate = integrand). The objective's
+    quadrature is the same number: a Dymos Radau state x' = g(t) (collocation equations
+    solved by Dymos' own Newton solver) ends at exactly ``weights @ g(nodes)``."""
+    import dymos as dm
+
+    class Integrand(om.ExplicitComponent):
+        def initialize(self):
+            self.options.declare('num_nodes', types=int)
+
+        def setup(self):
+            nn = self.options['num_nodes']
+            self.add_input('time', shape=(nn,), units='s')
+            self.add_output('g', shape=(nn,), units='1/s')
+            self.declare_partials('g', 'time', diagonal=True)
+
+        def compute(self, inputs, outputs):
+            t = inputs['time']
+            outputs['g'] = np.sin(5.0 * t) ** 2 + np.exp(-t)
+
+        def compute_partials(self, inputs, partials):
+            t = inputs['time']
+            partials['g', 'time'] = 5.0 * np.sin(10.0 * t) - np.exp(-t)
+
+    segments, order, T = 7, 5, 5.0
+    p = om.Problem(reports=False)
+    phase = dm.Phase(ode_class=Integrand,
+                     transcription=dm.Radau(num_segments=segments, order=order, compressed=True))
+    phase.set_time_options(fix_initial=True, fix_duration=True, targets=['time'], units='s')
+    phase.add_state('x', rate_source='g', fix_initial=True, solve_segments='forward')
+    phase.add_timeseries_output('g')
+    p.model.add_subsystem('phase', phase)
+    p.model.linear_solver = om.DirectSolver()
+    p.setup()
+    phase.set_time_val(initial=0.0, duration=T)
+    phase.set_state_val('x', [0.0, 0.0])
+    p.run_model()
+    x_T = p.get_val('phase.timeseries.x')[-1, 0]
+    g = p.get_val('phase.timeseries.g')[:, 0]
+    assert abs(x_T - radau_quadrature_weights(segments, order, T) @ g) < 1e-12 * abs(x_T)
+    assert abs(x_T - 3.5063808) < 1e-4  # and it is the integral (SciPy quad: 3.50638080)
