@@ -61,8 +61,8 @@ def test_mixed_optimum_improves_in_the_mixed_model(cfg, scales, low_design, mixe
                         method='time-marching')
     assert at_mixed['objective'] < at_low['objective']
     assert abs(at_mixed['objective'] / mixed_optimum['objective'] - 1.0) < 5e-3
-    calls = mixed_optimum['multibody_calls']
-    assert calls['augmented'] > 0 and calls['positions'] >= calls['augmented']
+    calls = mixed_optimum['multibody_calls']  # the black box really ran
+    assert calls['augmented'] > 0 and calls['positions'] > 0
 
 
 def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_optimum):
