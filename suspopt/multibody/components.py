@@ -29,7 +29,8 @@ import openmdao.api as om
 from openmdao.approximation_schemes.finite_difference import FiniteDifference
 from openmdao.jacobians.dictionary_jacobian import _CheckingJacobian
 from openmdao.jacobians.subjac import OMCOOSubjac
-from openmdao.utils.coloring import Coloring, _ColSparsityJac
+from openmdao.utils.coloring import Coloring, _tol_sweep
+from scipy.sparse import coo_matrix
 
 from suspopt.errors import MultibodyError
 from suspopt.multibody.suspension import SuspensionModule
@@ -140,21 +141,23 @@ class NodewiseBlackBox(om.ExplicitComponent):
     def compute_fd_sparsity(self, method: str = 'fd', num_full_jacs: int = 2,
                             perturb_size: float = 1e-9):
         """The declared node-wise sparsity; no FD evaluation is spent on detecting it."""
-        jac = _ColSparsityJac(self)
+        info = self._coloring_info
         prefix = self.pathname + '.' if self.pathname else ''
         ofs = [(name[len(prefix):], start, end) for name, start, end, *_ in self._get_jac_ofs()]
-        col = np.zeros(jac.shape[0])
-        for wrt_abs, wstart, wend, *_ in self._get_jac_wrts(self._coloring_info.wrt_matches):
-            wrt = wrt_abs[len(prefix):]
-            for k in range(wend - wstart):
-                col[:] = 0.0
-                for of, ostart, _ in ofs:
-                    pattern = self._nodewise.get((of, wrt))
-                    if pattern is not None:
-                        rows, cols = pattern
-                        col[ostart + rows[cols == k]] = 1.0
-                jac.set_col(self, wstart + k, col)
-        return jac.get_sparsity()
+        wrts = self._get_jac_wrts(info.wrt_matches)
+        rows, cols = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
+        for wrt_abs, wstart, *_ in wrts:
+            for of, ostart, _ in ofs:
+                pattern = self._nodewise.get((of, wrt_abs[len(prefix):]))
+                if pattern is not None:
+                    rows.append(ostart + pattern[0])
+                    cols.append(wstart + pattern[1])
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        shape = (ofs[-1][2] if ofs else 0, wrts[-1][2] if wrts else 0)
+        # the metadata OpenMDAO's own detection reports, for a pattern of exact nonzeros
+        sp_info = _tol_sweep(np.ones(rows.size), info.tol, info.orders)
+        sp_info.update(J_shape=shape, nz_entries=rows.size)
+        return coo_matrix((np.ones(rows.size, dtype=bool), (rows, cols)), shape=shape), sp_info
 
     def _compute_coloring(self, recurse=False, **overrides):
         """The FD partial coloring, built from the known structure: one color per input
@@ -172,15 +175,17 @@ class NodewiseBlackBox(om.ExplicitComponent):
         order = np.lexsort((coo.row, coo.col))
         rows, cols = coo.row[order], coo.col[order]
         ncols = sparsity.shape[1]
-        col2rows = np.split(rows, np.searchsorted(cols, np.arange(1, ncols)))
+        bounds = np.searchsorted(cols, np.arange(ncols + 1))
         groups = [list(range(start, end)) for _, start, end, *_ in
                   self._get_jac_wrts(info.wrt_matches)]
         for group in groups:  # a color's columns must not share a row
-            grows = np.concatenate([col2rows[c] for c in group])
+            grows = rows[bounds[group[0]]:bounds[group[-1] + 1]] if group else rows[:0]
             if np.unique(grows).size != grows.size:
                 raise RuntimeError(f'{self.msginfo}: outputs are not node-wise in the inputs')
         coloring = Coloring(sparsity=sparsity)
-        coloring._fwd = (groups, [r.tolist() if r.size else None for r in col2rows])
+        row_list = rows.tolist()
+        coloring._fwd = (groups, [row_list[a:b] or None
+                                  for a, b in zip(bounds[:-1], bounds[1:])])
         coloring._meta['coloring_time'] = time.perf_counter() - t0
         coloring._resolver = self._resolver
         if not self._finalize_coloring(coloring, info, sp_info, time.perf_counter() - t0):
