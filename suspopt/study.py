@@ -143,7 +143,7 @@ def initial_guess(config: StudyConfig, fidelity: str,
     if mode == 'zero' or (mode == 'auto' and fidelity == 'low'):
         return None
     # a starting point only: the collocation error (~1e-4) is far above these tolerances
-    return simulate(config, 'low', design, rtol=1e-5, atol=1e-8)
+    return simulate(config, 'low', design, rtol=1e-3, atol=1e-6)
 
 
 def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | None = None,
