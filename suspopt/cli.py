@@ -14,6 +14,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -34,6 +36,11 @@ def _design(text: str, flag: str) -> dict[str, float]:
     if len(values) != 4:
         raise ConfigError(f'{flag}: expected four numbers K1,K2,C1,C2 '
                           f'(k_S1, k_S2 [N/m], c_S1, c_S2 [N s/m]), got {text!r}')
+    bad = [f'{n} = {v:g}' for n, v in zip(DESIGN_NAMES, values)
+           if not math.isfinite(v) or v < 0.0 or (n.startswith('k') and v == 0.0)]
+    if bad:
+        raise ConfigError(f'{flag}: spring rates must be finite and > 0, damping finite and '
+                          f'>= 0; got {", ".join(bad)}')
     return dict(zip(DESIGN_NAMES, values))
 
 
@@ -155,7 +162,12 @@ def cmd_init(args: argparse.Namespace) -> int:
     path = Path(args.file)
     if path.exists() and not args.overwrite:
         raise ConfigError(f'{path} exists; pass --overwrite to replace it')
-    path.write_text(default_config_toml())
+    if not path.parent.is_dir():
+        raise ConfigError(f'{path}: directory {path.parent} does not exist')
+    try:
+        path.write_text(default_config_toml())
+    except OSError as err:
+        raise ConfigError(f'cannot write {path}: {err.strerror}') from None
     print(f'wrote {path} (the paper\'s case; edit it and pass --config {path})')
     return 0
 
@@ -240,6 +252,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print('suspopt: interrupted; results written so far are kept', file=sys.stderr)
         return 130
+    except Exception as err:  # a bug: one line for the user, the traceback on request
+        if os.environ.get('SUSPOPT_DEBUG'):
+            raise
+        print(f'suspopt: error: unexpected {type(err).__name__}: {err} (this is a bug in '
+              'suspopt; SUSPOPT_DEBUG=1 shows the traceback)', file=sys.stderr)
+        return 1
 
 
 def _quiet_libraries() -> None:

@@ -357,6 +357,13 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
     elif obj.scales:
         errs.add('objective.scales', "only used with normalization = 'custom'")
     tr = cfg.transcription
+    if tr.order < 2 and tr.order > 0:  # Radau with one point per segment degenerates
+        errs.add('transcription.order', f'must be >= 2 (Radau points per segment), got {tr.order}')
+    op = cfg.optimizer
+    if not 0 <= op.print_level <= 12:
+        errs.add('optimizer.print_level', f'must be 0..12 (IPOPT), got {op.print_level}')
+    from suspopt.driver import ipopt_option_problems
+    errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
     if tr.initial_guess not in ('auto', 'simulate', 'zero'):
         errs.add('transcription.initial_guess', f"must be 'auto', 'simulate' or 'zero', "
                  f'got {tr.initial_guess!r}')
@@ -431,7 +438,7 @@ def load_config(path: str | Path) -> StudyConfig:
             data = tomllib.load(fh)
     except FileNotFoundError:
         raise ConfigError(f'config file not found: {path}') from None
-    except tomllib.TOMLDecodeError as err:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise ConfigError(f'{path}: not valid TOML: {err}') from None
     except OSError as err:
         raise ConfigError(f'cannot read config file {path}: {err.strerror}') from None

@@ -26,8 +26,11 @@ OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available her
 """
 from __future__ import annotations
 
+import ctypes
+import os
 import signal
 import sys
+import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -53,6 +56,85 @@ IPOPT_STATUS = {
     -101: 'NonIpopt_Exception_Thrown', -102: 'Insufficient_Memory', -199: 'Internal_Error',
 }
 _INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means "none"
+
+
+class _OptionProbe:
+    """The smallest problem object cyipopt accepts, to try options on."""
+
+    def objective(self, x):
+        return 0.0
+
+    def gradient(self, x):
+        return np.zeros(1)
+
+
+@contextmanager
+def _c_stdout_to(fh):
+    """Send what C code prints on the process's standard output to ``fh``."""
+    sys.stdout.flush()
+    libc = ctypes.CDLL(None)
+    saved = os.dup(1)
+    os.dup2(fh.fileno(), 1)
+    try:
+        yield
+    finally:
+        libc.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _ipopt_reason(text: str) -> str:
+    """IPOPT's own explanation of a rejected option, in one line."""
+    lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
+    if not lines:
+        return 'rejected by IPOPT'
+    reason = lines[0].replace(' Please check the list of available options.', '') \
+        .replace(' Check the option documentation.', '') \
+        .replace(' Please check the documentation for options.', '')
+    ranges = [ln for ln in lines if '<=' in ln or '<' in ln and '(' in ln]
+    if 'Valid Settings:' in lines:
+        i = lines.index('Valid Settings:')
+        valid = [ln.split()[0] for ln in lines[i + 1:] if not ln.startswith('Default')]
+        reason += f' (valid: {", ".join(valid)})'
+    elif ranges:
+        reason += f' (range: {ranges[0]})'
+    return reason
+
+
+def _add_option(nlp: cyipopt.Problem, name: str, value: Any) -> None:
+    """``nlp.add_option``, taking an integer for a real-valued option too (TOML writes
+    ``acceptable_tol = 1`` as an integer; IPOPT would reject it by type)."""
+    try:
+        nlp.add_option(name, value)
+    except TypeError:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise
+        nlp.add_option(name, float(value))
+
+
+def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
+    """One ``name: reason`` line per option that IPOPT itself rejects (unknown name, wrong
+    type, value out of range), found by setting each on a throw-away IPOPT problem."""
+    if not options:
+        return []
+    problems = []
+    nlp = cyipopt.Problem(n=1, m=0, problem_obj=_OptionProbe(), lb=[0.0], ub=[1.0])
+    try:
+        for name, value in options.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+                problems.append(f'{name}: must be a number or a string, got {value!r}')
+                continue
+            with tempfile.TemporaryFile(mode='w+') as out:
+                try:
+                    with _c_stdout_to(out):
+                        _add_option(nlp, name, value)
+                except TypeError:
+                    out.seek(0)
+                    problems.append(f'{name}: IPOPT rejects {value!r}: '
+                                    f'{_ipopt_reason(out.read())}')
+    finally:
+        nlp.close()
+    return problems
 
 
 class _IgnoreZeroing(np.ndarray):
@@ -503,7 +585,7 @@ class IpoptDriver(Driver):
         nlp.add_option('print_level', self.options['print_level'])
         nlp.add_option('sb', 'yes')
         for key, val in self.opt_settings.items():
-            nlp.add_option(key, val)
+            _add_option(nlp, key, val)
 
         previous = signal.getsignal(signal.SIGINT)
 

@@ -288,6 +288,8 @@ def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith('#')]
     except OSError as err:
         raise ConfigError(f'cannot read road CSV {path}: {err.strerror}') from None
+    except UnicodeDecodeError:
+        raise ConfigError(f'{path}: not a text (UTF-8) CSV file') from None
     data = []
     for i, row in enumerate(rows):
         try:

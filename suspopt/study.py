@@ -50,10 +50,14 @@ def write_json(path: str | Path, data: Any) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
-    with os.fdopen(fd, 'w') as fh:
-        json.dump(data, fh, indent=2, default=_json_default)
-        fh.write('\n')
-    os.replace(tmp, path)
+    try:
+        with os.fdopen(fd, 'w') as fh:
+            json.dump(data, fh, indent=2, default=_json_default)
+            fh.write('\n')
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
 
 
 def _json_default(obj: Any) -> Any:
@@ -170,6 +174,15 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
             problem.set_initial_guess(guess)
         res = problem.solve(optimize=True)
         problem.record(f'{fidelity}_optimum')
+    except ModelError as err:
+        if out_dir is not None:  # what failed, where, is part of the results
+            write_json(Path(out_dir) / 'result.json', {
+                'fidelity': fidelity, 'mode': 'optimize', 'method': 'collocation',
+                'design': start, 'start': start, 'objective': None, 'success': False,
+                'status': 'Model_Error', 'message': str(err), 'iterations': 0,
+                'scales': _scales(scales), 'normalization': config.objective.normalization,
+                'wall_time_s': time.perf_counter() - t0})
+        raise
     finally:
         if own:
             problem.cleanup()

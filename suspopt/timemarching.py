@@ -22,7 +22,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from suspopt.config import DESIGN_NAMES, StudyConfig
-from suspopt.errors import ModelError
+from suspopt.errors import ConfigError, ModelError
 from suspopt.models import equations as eq
 from suspopt.multibody.suspension import SuspensionModule
 from suspopt.road import wheel_road_inputs
@@ -188,7 +188,7 @@ def reference_scales(config: StudyConfig) -> tuple[float, float, float, float]:
     initial design by accurate time marching (SPEC §5)."""
     J = simulate(config, 'low', t_eval=np.array([0.0, config.maneuver.horizon])).J
     if not np.all(J > 0.0):
-        raise ModelError(f'reference normalization impossible: J = {J.tolist()} at the initial '
-                         'design (the road does not excite every term); use '
-                         "normalization = 'custom'")
+        raise ConfigError(f'objective.normalization: reference normalization impossible: '
+                          f'J = {J.tolist()} at the initial design (the road does not excite '
+                          "every term); use normalization = 'custom' with scales")
     return tuple(float(x) for x in J)

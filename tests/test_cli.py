@@ -119,3 +119,35 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
     assert (a / 'table.md').read_text() == table
     assert sorted(p.name for p in (a / 'figures').iterdir()) == figures
     assert main(['report', str(tmp_path)]) == 2  # not a study directory
+
+
+BIG_BUMP = '[road]\nprofile = "bump"\nheight = 0.6\n[objective]\nnormalization = "paper"\n'
+
+
+def test_linkage_beyond_its_range_exits_1_naming_the_cause(tmp_path, capsys):
+    """A 0.6 m bump drives the wheel to the wishbones' toggle position (0.33 m): time
+    marching stops there at once with the multibody error (it used to creep for minutes),
+    and an optimization from there ends with exit 1 and a result.json saying why."""
+    cfg = tmp_path / 'big.toml'
+    cfg.write_text(BIG_BUMP)
+    t0 = time.perf_counter()
+    code, _, err = _run(['evaluate', '--fidelity', 'mixed', '--method', 'time-marching',
+                         '--config', str(cfg)], capsys)
+    assert code == 1 and time.perf_counter() - t0 < 30.0
+    assert 'toggle' in err and 'edge of its range' in err and 'Traceback' not in err
+    out = tmp_path / 'opt'
+    code, _, err = _run(['optimize', '--fidelity', 'mixed', '--config', str(cfg), *GRID,
+                         '--out', str(out), '--quiet'], capsys)
+    assert code == 1 and 'model evaluation failed at the starting point' in err
+    res = json.loads((out / 'result.json').read_text())
+    assert res['success'] is False and res['status'] == 'Model_Error'
+    assert 'double wishbone' in res['message']
+
+
+def test_road_that_excites_nothing_is_bad_input(tmp_path, capsys):
+    """The reference normalization divides by J_k at the initial design; a bump beyond
+    the end of the drive makes them zero: exit 2 naming objective.normalization."""
+    cfg = tmp_path / 'late.toml'
+    cfg.write_text('[road]\nprofile = "bump"\nstart = 200.0\n')
+    code, _, err = _run(['evaluate', '--fidelity', 'low', '--config', str(cfg)], capsys)
+    assert code == 2 and 'objective.normalization' in err and 'custom' in err

@@ -76,6 +76,17 @@ BAD_INPUTS = [
      'not found'),
     ('[multibody]\nfd_form = "backward"', 'multibody.fd_form', "'forward' or 'central'"),
     ('speling = 1', 'speling', 'unknown key'),
+    ('[transcription]\norder = 1', 'transcription.order', 'must be >= 2'),
+    ('[transcription]\ninitial_guess = "warm"', 'transcription.initial_guess',
+     "'auto', 'simulate' or 'zero'"),
+    ('[optimizer]\nprint_level = 99', 'optimizer.print_level', 'must be 0..12'),
+    ('[optimizer]\nmax_iter = 0', 'optimizer.max_iter', 'must be > 0'),
+    ('[optimizer.options]\nno_such_option = 3', 'optimizer.options.no_such_option',
+     'not a valid option'),
+    ('[optimizer.options]\nmu_strategy = "bogus"', 'optimizer.options.mu_strategy',
+     'valid: monotone, adaptive'),
+    ('[optimizer.options]\nmax_cpu_time = -1.0', 'optimizer.options.max_cpu_time',
+     'range: 0 <'),
 ]
 
 
@@ -99,20 +110,43 @@ def test_bad_input_names_the_key_and_exits_2(tmp_path, capsys, snippet, key, wor
     ('0,0\n1,x\n2,0\n3,0\n60,0\n', 'row 2 is not two numbers'),
     ('0,0\n', 'at least 4'),
 ])
-def test_bad_road_csv(tmp_path, rows, words):
+def test_bad_road_csv(tmp_path, capsys, rows, words):
     _write(tmp_path, rows, 'road.csv')
     path = _write(tmp_path, '[road]\nprofile = "csv"\nfile = "road.csv"')
     with pytest.raises(ConfigError) as err:
         load_config(path)
     assert any('road.file' in p and words in p for p in err.value.problems), err.value.problems
+    assert main(['evaluate', '--fidelity', 'low', '--config', str(path)]) == 2
+    stderr = capsys.readouterr().err
+    assert 'road.file' in stderr and words in stderr and 'Traceback' not in stderr
 
 
-def test_unreadable_and_invalid_files(tmp_path):
+def test_road_csv_that_is_not_text(tmp_path, capsys):
+    (tmp_path / 'road.csv').write_bytes(b'\xff\xfe\x00\x01' * 64)
+    path = _write(tmp_path, '[road]\nprofile = "csv"\nfile = "road.csv"')
+    assert main(['evaluate', '--fidelity', 'low', '--config', str(path)]) == 2
+    stderr = capsys.readouterr().err
+    assert 'road.file' in stderr and 'not a text (UTF-8) CSV' in stderr
+
+
+def test_unreadable_and_invalid_files(tmp_path, capsys):
     with pytest.raises(ConfigError, match='config file not found'):
         load_config(tmp_path / 'missing.toml')
     with pytest.raises(ConfigError, match='not valid TOML'):
         load_config(_write(tmp_path, '[vehicle\nchassis_mass = 1'))
     assert main(['study', '--config', str(tmp_path / 'missing.toml')]) == 2
+    assert 'config file not found' in capsys.readouterr().err
+    assert main(['evaluate', '--fidelity', 'low', '--config',
+                 str(_write(tmp_path, '[vehicle\nchassis_mass = 1'))]) == 2
+    assert 'not valid TOML' in capsys.readouterr().err
+    binary = tmp_path / 'binary.toml'
+    binary.write_bytes(b'\xff\xfe[vehicle]\x00')
+    assert main(['evaluate', '--fidelity', 'low', '--config', str(binary)]) == 2
+    stderr = capsys.readouterr().err
+    assert 'binary.toml: not valid TOML' in stderr and 'Traceback' not in stderr
+    # init into a directory that does not exist
+    assert main(['init', str(tmp_path / 'no' / 'such' / 'dir' / 'case.toml')]) == 2
+    assert 'does not exist' in capsys.readouterr().err
 
 
 def test_bad_mechanism_file(tmp_path):
@@ -121,18 +155,24 @@ def test_bad_mechanism_file(tmp_path):
     from suspopt.multibody.mechanism import mechanism_path
     text = mechanism_path('double_wishbone').read_text()
     mech.write_text(text.replace('bodies = ["W", "U"]', 'bodies = ["W", "UU"]')
-                    .replace('mass = 20.0', 'mass = -20.0', 1))
+                    .replace('mass = 20.0', 'mass = -20.0', 1)
+                    .replace('inertia = 0.15', 'inertia = 0.0', 1))
     path = _write(tmp_path, f'[vehicle.front]\nmechanism = "{mech.name}"')
     with pytest.raises(ConfigError) as err:
         load_config(path)
     text = '\n'.join(err.value.problems)
     assert "joints[0].bodies: unknown body 'UU'" in text and "did you mean 'U'" in text
     assert 'bodies[1].mass: must be > 0' in text
+    assert 'bodies[1].inertia: must be > 0' in text
 
 
 def test_bad_command_line_values(capsys):
     assert main(['evaluate', '--fidelity', 'low', '--design', '1,2,3']) == 2
     assert '--design' in capsys.readouterr().err
+    assert main(['evaluate', '--fidelity', 'low', '--design', 'nan,3e4,3e3,3e3']) == 2
+    assert "--design: spring rates must be finite and > 0" in capsys.readouterr().err
+    assert main(['evaluate', '--fidelity', 'low', '--design', '3e4,3e4,-1,3e3']) == 2
+    assert 'c_S1 = -1' in capsys.readouterr().err
     assert main(['optimize', '--fidelity', 'low', '--start', '1e4,1e4,1e3']) == 2
     assert main(['evaluate', '--fidelity', 'low', '--segments', '0']) == 2
     assert 'transcription.segments' in capsys.readouterr().err

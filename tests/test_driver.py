@@ -1,6 +1,8 @@
 """IpoptDriver on small problems with known answers (independent of Dymos)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import openmdao.api as om
 import pytest
@@ -106,3 +108,14 @@ def test_pinned_variable_is_held():
     p.run_driver()
     assert p.get_val('x')[0] == 2.0
     np.testing.assert_allclose(p.get_val('y')[0], -5.0, rtol=1e-6)  # df/dy = 2 + 2(y+4) = 0
+
+
+def test_write_json_is_atomic(tmp_path):
+    """A failure while writing leaves the previous file intact and no temporary files."""
+    from suspopt.study import write_json
+    path = tmp_path / 'result.json'
+    write_json(path, {'a': 1})
+    with pytest.raises(TypeError):
+        write_json(path, {'a': 2, 'b': object()})
+    assert json.loads(path.read_text()) == {'a': 1}
+    assert [p.name for p in tmp_path.iterdir()] == ['result.json']

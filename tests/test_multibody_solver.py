@@ -387,6 +387,20 @@ def test_independent_coordinate_that_cannot_drive_is_a_config_error(mech):
         PlanarMultibodySolver(dataclasses.replace(mech, independent=(('W', 'phi'),)))
 
 
+def test_toggle_position_is_the_edge_of_the_range():
+    """The parallelogram's arms (0.33 m) stand vertical at 0.33 m of wheel travel: there
+    the arm angle rate per wheel rate, 1/(0.33 cos φ), is unbounded and the dynamics
+    singular. The module refuses states where the linkage moves over 100 times faster
+    than at its reference pose (cos φ < 1/100) and accepts everything short of that."""
+    mod = SuspensionModule('double_wishbone')
+    for z in (0.32, 0.3299, -0.3299):  # cos φ = 0.246, 0.0246: 4 and 41 times
+        kin = mod.kinematics(np.array([z]), np.array([0.1]))
+        assert abs(kin.q_W[0] - z) < 1e-12
+    for z in (0.32999, 0.33, -0.32999):  # cos φ = 0.0078: 128 times
+        with pytest.raises(MultibodyError, match='toggle'):
+            mod.kinematics(np.array([0.0, z]), np.array([0.0, 0.0]))
+
+
 def test_nan_and_out_of_range_inputs_are_multibody_errors(solver):
     with pytest.raises(MultibodyError, match='non-finite independent coordinate'):
         solver.positions(np.array([[np.nan]]))

@@ -143,6 +143,9 @@ class PlanarMultibodySolver:
                 f'{mechanism.name}: singular constraint Jacobian at the reference pose '
                 '(redundant or locked joints, or the independent coordinates cannot drive '
                 'the mechanism)')
+        #: largest |∂q_dep/∂q_ind| at the reference pose (see :meth:`velocities`)
+        self.sensitivity0 = float(np.max(np.abs(np.linalg.solve(
+            Cq[:, self.dep], Cq[:, self.ind])))) or 1.0
 
     # ---------------------------------------------------------------- kinematics
     def _ext(self, q: np.ndarray) -> np.ndarray:
@@ -312,13 +315,15 @@ class PlanarMultibodySolver:
         q = np.array(np.broadcast_to(self.q0, (N, self.n))) if guess is None else guess.copy()
         q[:, self.ind] = q_ind
         todo = np.arange(N)
-        for _ in range(self.newton_max_iter):
+        for it in range(self.newton_max_iter + 1):
             qa = q[todo]
             arms = self._joint_arms(qa)
             C = self._constraints(qa, arms)
             open_ = np.max(np.abs(C), axis=1, initial=0.0) >= self.newton_tol
             if not np.any(open_):
                 return q
+            if it == self.newton_max_iter:
+                break
             todo, qa, C = todo[open_], qa[open_], C[open_]
             J = self.constraint_jacobian(qa, (arms[0][open_], arms[1][open_]))[:, :, self.dep]
             q[np.ix_(todo, self.dep)] = qa[:, self.dep] - _batched_solve(
@@ -329,15 +334,35 @@ class PlanarMultibodySolver:
             f'{self.newton_max_iter} Newton iterations (max |C| = {worst:.2e}); the '
             'independent coordinate is out of the mechanism\'s range')
 
-    def velocities(self, q: np.ndarray, qd_ind: np.ndarray,
-                   Cq: np.ndarray | None = None) -> np.ndarray:
-        """All velocities (N, n) from the independent ones: ``C_q q̇ = 0``."""
+    def velocities(self, q: np.ndarray, qd_ind: np.ndarray, Cq: np.ndarray | None = None,
+                   max_sensitivity: float | None = None) -> np.ndarray:
+        """All velocities (N, n) from the independent ones: ``C_q q̇ = 0``.
+
+        With ``max_sensitivity``, a state where some dependent coordinate moves more than
+        that many times faster per unit of independent motion than at the reference pose
+        (``∂q_dep/∂q_ind = -C_q,dep⁻¹ C_q,ind``, solved with the same factorization) is a
+        :class:`MultibodyError`: the mechanism is at or near a singular (toggle) position,
+        the edge of its range of motion, where its dynamics have no finite solution."""
         qd = np.zeros_like(q)
         qd[:, self.ind] = qd_ind
         if Cq is None:
             Cq = self.constraint_jacobian(q)
-        rhs = -np.einsum('nij,nj->ni', Cq[:, :, self.ind], qd[:, self.ind])
-        qd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'velocity analysis')
+        C_ind = Cq[:, :, self.ind]
+        rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
+        if max_sensitivity is None:
+            qd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'velocity analysis')
+            return qd
+        x = _batched_solve(Cq[:, :, self.dep], np.concatenate([rhs[..., None], -C_ind], -1),
+                           'velocity analysis')
+        qd[:, self.dep] = x[..., 0]
+        ratio = np.max(np.abs(x[..., 1:]), axis=(1, 2)) / self.sensitivity0
+        worst = int(np.argmax(ratio))
+        if ratio[worst] > max_sensitivity:
+            raise MultibodyError(
+                f'{self.mechanism.name}: near a singular (toggle) position at independent '
+                f'coordinate(s) {np.round(q[worst, self.ind], 6).tolist()}: the linkage '
+                f'moves {ratio[worst]:.3g} times faster than at its reference pose; this is '
+                'the edge of its range of motion')
         return qd
 
     def consistent_state(self, q_ind: np.ndarray, qd_ind: np.ndarray,
@@ -357,10 +382,13 @@ class PlanarMultibodySolver:
 
 
 def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
-    """Solve a batch of small dense systems; a singular or non-finite one is a MultibodyError."""
+    """Solve a batch of small dense systems ``A`` (N, m, m) for right-hand sides ``b``
+    (N, m) or (N, m, k); a singular or non-finite one is a MultibodyError."""
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
         raise MultibodyError(f'non-finite value in the {what}')
     try:
+        if b.ndim == A.ndim:
+            return np.linalg.solve(A, b)
         return np.linalg.solve(A, b[..., None])[..., 0]
     except np.linalg.LinAlgError:
         raise MultibodyError(f'singular {what}: the mechanism is in a singular '

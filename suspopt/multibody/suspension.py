@@ -44,6 +44,10 @@ class SuspensionModule:
 
     #: analyses remembered per kind (position; position + velocity)
     memory = 8
+    #: a state where the linkage moves this many times faster than at its reference pose
+    #: is refused as the edge of its range (a toggle position: the double wishbone's arms
+    #: vertical, 99.995 % of the 0.33 m arm length)
+    max_sensitivity = 100.0
 
     def __init__(self, mechanism: Mechanism | str, newton_tol: float = 1e-13):
         if isinstance(mechanism, str):
@@ -109,7 +113,7 @@ class SuspensionModule:
             else:
                 s = self.solver
                 q, Cq, pos = self._pose(z_W, guess)
-                qd = s.velocities(q, v_W[:, None], Cq)
+                qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity)
                 qd.flags.writeable = False
                 vel = s.marker_velocities(q, qd)
                 kin = ModuleKinematics(q_U=pos[:, self.spring, 1], qd_U=vel[:, self.spring, 1],
