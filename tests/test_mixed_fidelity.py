@@ -66,27 +66,42 @@ def test_mixed_optimum_improves_in_the_mixed_model(cfg, scales, low_design, mixe
 
 
 def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_optimum):
-    """Independent bounded local search on the time-marching objective (no derivatives, no
-    collocation): a compass step of 2 % of each variable's range in every direction does
-    not improve f by more than 0.1 %."""
+    """Independent of collocation and of derivatives: the time-marching objective (SciPy
+    DOP853, rtol 1e-7) around the mixed-fidelity optimum x*, with h = 2 % of each range.
+
+    1. Along each design axis, the parabola through x* - h, x*, x* + h curves upwards,
+       its minimum lies within h/4 (0.5 % of the range) of x*, and it predicts less than
+       1e-5 relative decrease: x* is the 1-D time-marching optimum on every axis.
+    2. A poll along the 8 directions ±(four orthogonal diagonals) at the same step finds
+       no point lower than f(x*) (1 - 1e-5) (issue 4 asks for 0.1 %).
+    (Measured: minima within 0.034 h, predicted decreases <= 2e-8, diagonal polls all
+    raise f by about 1e-4.)"""
     names = DESIGN_NAMES
     lo = np.array([getattr(cfg.design, n).lower for n in names])
     hi = np.array([getattr(cfg.design, n).upper for n in names])
 
     def f(x):
-        tr = simulate(cfg, 'mixed', dict(zip(names, x)), t_eval=np.array([0.0, 5.0]))
+        tr = simulate(cfg, 'mixed', dict(zip(names, x)), t_eval=np.array([0.0, 5.0]),
+                      rtol=1e-7, atol=1e-10)
         return objective_value(cfg, tr.J, scales)
 
     x = np.array([mixed_optimum['design'][n] for n in names])
+    assert np.all((x - 0.02 * (hi - lo) >= lo) & (x + 0.02 * (hi - lo) <= hi))  # interior
+    h = 0.02 * (hi - lo)
     f0 = f(x)
-    trials = []
     for j in range(4):
-        for sign in (-1.0, 1.0):
-            trial = x.copy()
-            trial[j] = np.clip(trial[j] + sign * 0.02 * (hi[j] - lo[j]), lo[j], hi[j])
-            trials.append((f(trial), trial))
-    best, xbest = min(trials, key=lambda t: t[0])
-    assert best > f0 * (1.0 - 1e-3), f'found {best} < {f0} at {xbest}'
+        e = np.zeros(4)
+        e[j] = h[j]
+        fp, fm = f(x + e), f(x - e)
+        curvature = fp - 2.0 * f0 + fm
+        assert curvature > 0.0, names[j]
+        offset = -0.5 * (fp - fm) / curvature  # parabola's minimum, in units of h
+        assert abs(offset) < 0.25, (names[j], offset)
+        assert (fp - fm) ** 2 / (8.0 * curvature) < 1e-5 * f0, names[j]
+    diagonals = np.array([[1, 1, 1, 1], [1, -1, 1, -1], [1, 1, -1, -1], [1, -1, -1, 1]]) / 2.0
+    for d in np.concatenate([diagonals, -diagonals]):
+        trial = x + d * h
+        assert f(trial) > f0 * (1.0 - 1e-5), trial
 
 
 def _reduced_gradient(vp: VehicleProblem) -> np.ndarray:
