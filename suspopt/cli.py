@@ -4,7 +4,7 @@
     suspopt optimize  --fidelity low|mixed [--start K1,K2,C1,C2] [--out DIR] ...
     suspopt evaluate  --fidelity low|mixed --design K1,K2,C1,C2 [--method ...]
     suspopt init FILE                                     write the paper's case as a study file
-    suspopt report DIR                                    re-render table and figures of a study
+    suspopt report DIR                                    re-render table and figures of a run
 
 Exit codes: 0 success; 1 a model or optimization failure (results so far are kept);
 2 bad input (one line per problem, naming the key); 130 interrupted.
@@ -228,7 +228,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--overwrite', action='store_true')
     p.set_defaults(func=cmd_init)
 
-    p = sub.add_parser('report', help="re-render a study's table and figures from its records")
+    p = sub.add_parser('report', help="re-render the table and figures of a study or an "
+                                      "optimize run from its records")
     p.add_argument('dir')
     p.set_defaults(func=cmd_report)
     return parser

@@ -1,5 +1,7 @@
 """Tables and figures of a study, rendered from its recorded data (``suspopt report DIR``).
 
+(A ``suspopt optimize`` directory is rendered too: :func:`render_run`.)
+
 Reads ``study.json`` (designs, objectives, IPOPT statistics), the SQLite case recorders
 ``low.sql``/``mixed.sql`` (the trajectories of every design in each model, as recorded by
 OpenMDAO) and ``time_marching.npz``; writes ``table.md`` and ``figures/*.png``:
@@ -59,7 +61,8 @@ def load_study(out_dir: str | Path) -> dict[str, Any]:
     try:
         return json.loads(path.read_text())
     except FileNotFoundError:
-        raise ConfigError(f'{out_dir}: no study.json (not a study output directory)') from None
+        raise ConfigError(f'{out_dir}: no study.json or result.json (not a suspopt study '
+                          'or optimize output directory)') from None
     except json.JSONDecodeError as err:
         raise ConfigError(f'{path}: unreadable ({err})') from None
 
@@ -175,23 +178,13 @@ def _plot_set(path: Path, title: str, curves: list[tuple[str, Trajectory, dict]]
     plt.close(fig)
 
 
-def render(out_dir: str | Path) -> list[Path]:
-    """Write ``table.md`` and the figures of a (possibly partial) study directory."""
-    import matplotlib
-    matplotlib.use('Agg')
+def _road_figure(path: Path, config_dict: dict[str, Any]) -> Path:
+    """Road displacement under both wheels over the horizon (paper Figure 3)."""
     import matplotlib.pyplot as plt
 
     from suspopt.config import config_from_dict
     from suspopt.road import wheel_road_inputs
-
-    out = Path(out_dir)
-    study = load_study(out)
-    (out / 'table.md').write_text(table_markdown(study))
-    figs = out / 'figures'
-    figs.mkdir(exist_ok=True)
-    written = [out / 'table.md']
-
-    config = config_from_dict(study['config'])
+    config = config_from_dict(config_dict)
     t = np.linspace(0.0, config.maneuver.horizon, 2001)
     h, _ = wheel_road_inputs(config.road_profile(), t, config.maneuver.speed,
                              (0.0, config.vehicle.wheelbase))
@@ -200,13 +193,116 @@ def render(out_dir: str | Path) -> list[Path]:
     ax.plot(t, h[1] * 1e3, '--', label=r'rear wheel $\delta_2(t)$')
     ax.set_xlabel('time t [s]')
     ax.set_ylabel('road displacement [mm]')
-    ax.set_title(f"Road input ({study['config']['road']['profile']}, "
+    ax.set_title(f"Road input ({config_dict['road']['profile']}, "
                  f"v = {config.maneuver.speed:g} m/s) — paper Fig. 3")
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.savefig(figs / 'road.png', dpi=120)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
-    written.append(figs / 'road.png')
+    return path
+
+
+def _convergence_figure(path: Path, runs: dict[str, dict[str, Any]]) -> Path:
+    """Objective and constraint violation per IPOPT iteration of each run (by fidelity)."""
+    import matplotlib.pyplot as plt
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    for fid, color in (('low', 'tab:blue'), ('mixed', 'tab:red')):
+        hist = (runs.get(fid) or {}).get('history') or []
+        if hist:
+            it = [h['iteration'] for h in hist]
+            a1.plot(it, [h['objective'] for h in hist], 'o-', color=color, ms=3,
+                    label=FIDELITY_LABELS[fid])
+            a2.semilogy(it, [max(h['constraint_violation'], 1e-16) for h in hist], 'o-',
+                        color=color, ms=3, label=FIDELITY_LABELS[fid])
+    a1.set(xlabel='IPOPT iteration', ylabel='objective f', title='Objective')
+    a2.set(xlabel='IPOPT iteration', ylabel='constraint violation (scaled)',
+           title='Collocation defects')
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=9)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def run_markdown(res: dict[str, Any]) -> str:
+    """The result of one ``suspopt optimize`` run, as Markdown."""
+    d, J = res.get('design') or {}, res.get('terms') or {}
+    lines = [f"**{res['fidelity']}-fidelity {res.get('mode', 'optimize')}** — "
+             f"{'converged' if res.get('success') else 'NOT converged'} "
+             f"({res.get('status', '?')}), {res.get('iterations', '—')} IPOPT iterations, "
+             f"{_fmt(res.get('wall_time_s'), 3)} s",
+             '',
+             '| | k_S1 [N/m] | k_S2 [N/m] | c_S1 [N·s/m] | c_S2 [N·s/m] | f |',
+             '|---|---|---|---|---|---|']
+    for label, design, f in (('start', res.get('start') or {}, None),
+                             ('result', d, res.get('objective'))):
+        if design:
+            lines.append(f'| {label} | ' + ' | '.join(f'{design[n]:.0f}' for n in
+                                                      ('k_S1', 'k_S2', 'c_S1', 'c_S2'))
+                         + f' | {"—" if f is None else f"{f:.4f}"} |')
+    if J:
+        lines += ['', '| J1 [(m/s²)²·s] | J2 [(rad/s²)²·s] | J3 [m²·s] | J4 [m²·s] |',
+                  '|---|---|---|---|',
+                  '| ' + ' | '.join(_fmt(J.get(f'J{k}'), 5) for k in range(1, 5)) + ' |']
+    scales = res.get('scales') or {}
+    if scales:
+        lines += ['', f"Normalization `{res.get('normalization')}`: s = ("
+                  + ', '.join(_fmt(v, 6) for v in scales.values()) + ').']
+    if res.get('message') and not res.get('success'):
+        lines += ['', f"Message: {res['message']}"]
+    return '\n'.join(lines) + '\n'
+
+
+def render_run(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and the figures of a ``suspopt optimize`` directory from its
+    ``result.json`` and case recorder ``cases.sql``: the optimum's trajectories, the
+    road, the convergence history."""
+    import matplotlib
+    matplotlib.use('Agg')
+    out = Path(out_dir)
+    path = out / 'result.json'
+    try:
+        res = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise ConfigError(f'{path}: unreadable ({err})') from None
+    (out / 'table.md').write_text(run_markdown(res))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    written = [out / 'table.md']
+    fid = res['fidelity']
+    if res.get('config'):
+        written.append(_road_figure(figs / 'road.png', res['config']))
+    tr = read_trajectory(out / 'cases.sql', f'{fid}_optimum') \
+        if (out / 'cases.sql').exists() else None
+    if tr is not None:
+        _plot_set(figs / 'trajectories.png',
+                  f'The {FIDELITY_LABELS[fid]} model at the design found',
+                  [(f'{fid} fidelity', tr, {'color': 'tab:blue' if fid == 'low'
+                                            else 'tab:red', 'lw': 1.2})])
+        written.append(figs / 'trajectories.png')
+    if res.get('history'):
+        written.append(_convergence_figure(figs / 'convergence.png', {fid: res}))
+    return written
+
+
+def render(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and the figures of a (possibly partial) study directory, or of
+    a ``suspopt optimize`` directory (:func:`render_run`)."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    if not (out / 'study.json').exists() and (out / 'result.json').exists():
+        return render_run(out)
+    study = load_study(out)
+    (out / 'table.md').write_text(table_markdown(study))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    written = [out / 'table.md']
+
+    written.append(_road_figure(figs / 'road.png', study['config']))
 
     traj = {}
     for fid in ('low', 'mixed'):
@@ -265,24 +361,7 @@ def render(out_dir: str | Path) -> list[Path]:
         plt.close(fig)
         written.append(figs / 'verification.png')
 
-    steps = study.get('steps', {})
+    steps = {fid: step for fid, step in study.get('steps', {}).items() if step}
     if steps:
-        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
-        for fid, color in (('low', 'tab:blue'), ('mixed', 'tab:red')):
-            hist = (steps.get(fid) or {}).get('history') or []
-            if hist:
-                it = [h['iteration'] for h in hist]
-                a1.plot(it, [h['objective'] for h in hist], 'o-', color=color, ms=3,
-                        label=FIDELITY_LABELS[fid])
-                a2.semilogy(it, [max(h['constraint_violation'], 1e-16) for h in hist], 'o-',
-                            color=color, ms=3, label=FIDELITY_LABELS[fid])
-        a1.set(xlabel='IPOPT iteration', ylabel='objective f', title='Objective')
-        a2.set(xlabel='IPOPT iteration', ylabel='constraint violation (scaled)',
-               title='Collocation defects')
-        for a in (a1, a2):
-            a.grid(alpha=0.3)
-            a.legend(fontsize=9)
-        fig.savefig(figs / 'convergence.png', dpi=120)
-        plt.close(fig)
-        written.append(figs / 'convergence.png')
+        written.append(_convergence_figure(figs / 'convergence.png', steps))
     return written

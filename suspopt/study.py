@@ -181,14 +181,14 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
                 'design': start, 'start': start, 'objective': None, 'success': False,
                 'status': 'Model_Error', 'message': str(err), 'iterations': 0,
                 'scales': _scales(scales), 'normalization': config.objective.normalization,
-                'wall_time_s': time.perf_counter() - t0})
+                'wall_time_s': time.perf_counter() - t0, 'config': config.to_dict()})
         raise
     finally:
         if own:
             problem.cleanup()
     out = result_dict(config, res, time.perf_counter() - t0, start, 'optimize')
-    if out_dir is not None:
-        write_json(Path(out_dir) / 'result.json', out)
+    if out_dir is not None:  # with its study description: the file is self-contained
+        write_json(Path(out_dir) / 'result.json', {**out, 'config': config.to_dict()})
     return out
 
 

@@ -52,6 +52,16 @@ def test_optimize_writes_results_and_refuses_to_overwrite(tmp_path, capsys):
     code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out),
                             '--overwrite', '--quiet'], capsys)
     assert code == 0 and stderr == ''
+    # report re-renders an optimize run from its records alone
+    code, stdout, _ = _run(['report', str(out)], capsys)
+    res = json.loads((out / 'result.json').read_text())
+    assert code == 0 and 'Solve_Succeeded' in stdout
+    assert f"| result | {res['design']['k_S1']:.0f} | {res['design']['k_S2']:.0f} |" in stdout
+    assert f"{res['objective']:.4f}" in stdout
+    for name in ('road', 'trajectories', 'convergence'):
+        assert (out / 'figures' / f'{name}.png').stat().st_size > 10_000
+    assert json.loads((out / 'result.json').read_text())['config']['transcription'][
+        'segments'] == 30
 
 
 def test_iteration_limit_exits_1_and_keeps_results(tmp_path, capsys):

@@ -143,9 +143,10 @@ class PlanarMultibodySolver:
                 f'{mechanism.name}: singular constraint Jacobian at the reference pose '
                 '(redundant or locked joints, or the independent coordinates cannot drive '
                 'the mechanism)')
-        #: largest |∂q_dep/∂q_ind| at the reference pose (see :meth:`velocities`)
-        self.sensitivity0 = float(np.max(np.abs(np.linalg.solve(
-            Cq[:, self.dep], Cq[:, self.ind])))) or 1.0
+        # ∂q_dep/∂q_ind at the reference pose: the tangent that predicts a position
+        # analysis's start, and the reference of the toggle check (see :meth:`velocities`)
+        self._tangent0 = -np.linalg.solve(Cq[:, self.dep], Cq[:, self.ind])
+        self.sensitivity0 = float(np.max(np.abs(self._tangent0))) or 1.0
 
     # ---------------------------------------------------------------- kinematics
     def _ext(self, q: np.ndarray) -> np.ndarray:
@@ -302,7 +303,8 @@ class PlanarMultibodySolver:
     # ---------------------------------------------------------------- partitioning
     def positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None) -> np.ndarray:
         """All coordinates (N, n) consistent with the independent ones (N, dof): Newton on
-        ``C(q) = 0`` for the dependent coordinates, from ``guess`` or the reference pose.
+        ``C(q) = 0`` for the dependent coordinates, from ``guess`` or from the reference
+        pose moved along its tangent (a first-order prediction: one Newton step fewer).
 
         Each state iterates until its own ``max |C| < newton_tol`` and is then left alone,
         so a state's result depends on its own inputs and start only (a state that starts
@@ -312,7 +314,11 @@ class PlanarMultibodySolver:
         if not np.all(np.isfinite(q_ind)):
             raise MultibodyError(f'{self.mechanism.name}: non-finite independent coordinate')
         N = q_ind.shape[0]
-        q = np.array(np.broadcast_to(self.q0, (N, self.n))) if guess is None else guess.copy()
+        if guess is None:  # the reference pose moved along its tangent
+            q = np.array(np.broadcast_to(self.q0, (N, self.n)))
+            q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
+        else:
+            q = guess.copy()
         q[:, self.ind] = q_ind
         todo = np.arange(N)
         for it in range(self.newton_max_iter + 1):
