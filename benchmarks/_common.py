@@ -63,7 +63,8 @@ def git_revision() -> str:
 
 def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float]) -> dict[str, Any]:
     """One optimization as `suspopt optimize` does it, timed by phase: setup (building the
-    Dymos/OpenMDAO problem), guess (time marching for the starting trajectory), coloring
+    Dymos/OpenMDAO problem), guess (the starting trajectory, `transcription.initial_guess`),
+    coloring
     (zero when cached), solve (IPOPT, coloring excluded) and their total."""
     from suspopt.problem import VehicleProblem
     from suspopt.study import initial_guess
@@ -75,12 +76,14 @@ def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float]) -> dict[
     vp.set_initial_guess(initial_guess(cfg, fidelity, start))
     t2 = time.perf_counter()
     mbd0 = sum(m.time_s for m in vp.modules)
+    reused0 = sum(m.reused for m in vp.modules)
     res = vp.solve()
     t3 = time.perf_counter()
     out = {'setup': t1 - t0, 'guess': t2 - t1, 'coloring': res.times['coloring_s'],
            'solve': t3 - t2 - res.times['coloring_s'], 'iterations': res.iterations,
            'fevals': res.function_evaluations, 'gevals': res.gradient_evaluations,
            'calls': res.multibody_calls, 'mbd_s': sum(m.time_s for m in vp.modules) - mbd0,
+           'reused': sum(m.reused for m in vp.modules) - reused0,
            'design': res.design, 'f': res.objective, 'success': res.success, 'problem': vp}
     out['total'] = out['setup'] + out['guess'] + out['solve']
     return out
