@@ -459,13 +459,6 @@ class IpoptDriver(Driver):
                                            driver_scaling=False)
             self._ojac = _TotalJacInfo(problem, self._of[:1], self._wrt, 'array',
                                        driver_scaling=False)
-            # one relevance graph (of every response) for the linearization and both
-            # solves: a component rebuilds its Jacobian object (and a finite-differenced
-            # one re-initializes its colored FD) whenever the relevance object changes,
-            # i.e. three times per iterate with one graph per of/wrt set
-            for tj in (self._tjac, self._ojac):
-                if tj is not None:
-                    tj.relevance = self._alljac.relevance
         self._linearize_model()
         with _linearized(problem.model):
             if self._tjac is None:

@@ -29,7 +29,7 @@ import openmdao.api as om
 from openmdao.approximation_schemes.finite_difference import FiniteDifference
 from openmdao.jacobians.dictionary_jacobian import _CheckingJacobian
 from openmdao.jacobians.subjac import OMCOOSubjac
-from openmdao.utils.coloring import Coloring, _tol_sweep
+from openmdao.utils.coloring import Coloring, _ColSparsityJac, _tol_sweep
 from scipy.sparse import coo_matrix
 
 from suspopt.errors import MultibodyError
@@ -116,6 +116,21 @@ class NodewiseBlackBox(om.ExplicitComponent):
         if method == 'fd' and 'fd' not in self._approx_schemes:
             self._approx_schemes['fd'] = _NodewiseFiniteDifference()
         return super()._get_approx_scheme(method)
+
+    def _get_jacobian(self, use_relevance: bool = True):
+        """Keep this component's Jacobian across relevance changes.
+
+        OpenMDAO rebuilds a component's Jacobian whenever the relevance graph changes, and
+        the driver's linearization and its two total-derivative solves per iterate each
+        have their own graph; for a finite-differenced component the rebuild also
+        re-initializes the colored FD (together ~0.1 s per mixed-fidelity solve). These
+        partials do not depend on relevance: every FD run perturbs all nodes of an input
+        and yields every output."""
+        jac = self._jacobian
+        if jac is not None and not isinstance(jac, _ColSparsityJac):
+            self._relevance_changed()  # keep OpenMDAO's bookkeeping current
+            return jac
+        return super()._get_jacobian(use_relevance)
 
     def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str]) -> None:
         """FD partials of each output (with ``outputs[name]`` values per node) w.r.t. each
