@@ -58,11 +58,22 @@ def _config(args: argparse.Namespace) -> StudyConfig:
         data['transcription']['order'] = args.order
     if getattr(args, 'max_iter', None) is not None:
         data['optimizer']['max_iter'] = args.max_iter
-    start = getattr(args, 'start', None)
-    if start:
-        for name, val in _design(start, '--start').items():
-            data['design'][name]['initial'] = val
     return config_from_dict(data)
+
+
+def _start(args: argparse.Namespace, config: StudyConfig) -> dict[str, float] | None:
+    """``--start``: where IPOPT starts, inside the bounds. It is not the study's initial
+    design, which also defines the ``reference`` normalization (SPEC §5): an optimization
+    from another start still minimizes the same f."""
+    if not args.start:
+        return None
+    start = _design(args.start, '--start')
+    bad = [f'{n} = {v:g} is outside [{lo:g}, {hi:g}]'
+           for n, v in start.items() for lo, hi in [config.design.bounds()[n]]
+           if not lo <= v <= hi]
+    if bad:
+        raise ConfigError(f'--start: {"; ".join(bad)}')
+    return start
 
 
 def _printer(quiet: bool):
@@ -107,10 +118,11 @@ def _summary(res: dict[str, Any]) -> str:
 def cmd_optimize(args: argparse.Namespace) -> int:
     from suspopt.study import optimize, prepare_out_dir
     config = _config(args)
+    start = _start(args, config)
     out = prepare_out_dir(args.out, args.overwrite)
     progress, log = _printer(args.quiet)
     log(f'optimizing the {args.fidelity}-fidelity model; results in {out}')
-    res = optimize(config, args.fidelity, out_dir=out, progress=progress)
+    res = optimize(config, args.fidelity, start=start, out_dir=out, progress=progress)
     print(_summary(res))
     if not res['success']:
         _fail_message(res)

@@ -161,3 +161,23 @@ def test_road_that_excites_nothing_is_bad_input(tmp_path, capsys):
     cfg.write_text('[road]\nprofile = "bump"\nstart = 200.0\n')
     code, _, err = _run(['evaluate', '--fidelity', 'low', '--config', str(cfg)], capsys)
     assert code == 2 and 'objective.normalization' in err and 'custom' in err
+
+
+def test_start_moves_ipopt_not_the_normalization(tmp_path, capsys):
+    """`--start` only says where IPOPT starts: the reference scales stay the J_k of the
+    study's initial design (SPEC §5), so every start minimizes the same f and finds the
+    same optimum."""
+    from suspopt.config import StudyConfig
+    from suspopt.study import resolve_scales
+    results = []
+    for name, start in (('a', []), ('b', ['--start', '45000,15000,4000,1500'])):
+        code, _, _ = _run(['optimize', '--fidelity', 'low', *GRID, '--quiet',
+                           '--out', str(tmp_path / name), *start], capsys)
+        assert code == 0
+        results.append(json.loads((tmp_path / name / 'result.json').read_text()))
+    s = resolve_scales(StudyConfig())
+    for res in results:
+        assert list(res['scales'].values()) == list(s)
+    assert results[1]['start'] == {'k_S1': 45000.0, 'k_S2': 15000.0, 'c_S1': 4000.0,
+                                   'c_S2': 1500.0}
+    assert abs(results[0]['objective'] - results[1]['objective']) < 1e-7

@@ -174,6 +174,8 @@ def test_bad_command_line_values(capsys):
     assert main(['evaluate', '--fidelity', 'low', '--design', '3e4,3e4,-1,3e3']) == 2
     assert 'c_S1 = -1' in capsys.readouterr().err
     assert main(['optimize', '--fidelity', 'low', '--start', '1e4,1e4,1e3']) == 2
+    assert main(['optimize', '--fidelity', 'low', '--start', '6e4,1e4,1e3,1e3']) == 2
+    assert '--start: k_S1 = 60000 is outside [10000, 50000]' in capsys.readouterr().err
     assert main(['evaluate', '--fidelity', 'low', '--segments', '0']) == 2
     assert 'transcription.segments' in capsys.readouterr().err
 
