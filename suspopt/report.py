@@ -128,14 +128,14 @@ def table_markdown(study: dict[str, Any]) -> str:
         lines += ['', '**Optimization statistics** (each step starts from the collocation '
                   'solution of its starting design)', '',
                   '| step | success | IPOPT status | iterations | function / gradient '
-                  'evaluations | solve [s] | multibody solver calls (each batched over all '
-                  'nodes) |', '|---|---|---|---|---|---|---|']
+                  'evaluations | solve [s] | multibody solver calls, each batched over all '
+                  'nodes (both axles) |', '|---|---|---|---|---|---|---|']
         for fid in ('low', 'mixed'):
             st = steps.get(fid)
             if st:
                 calls = st.get('multibody_calls') or {}
-                mbd = (f"{calls.get('augmented', 0)} dynamic, {calls.get('positions', 0)} "
-                       'kinematic') if calls else '—'
+                mbd = (f"{calls.get('augmented', 0)} augmented solves (eq. 11), "
+                       f"{calls.get('positions', 0)} position analyses") if calls else '—'
                 lines.append(
                     f"| {fid} | {st['success']} | {st['status']} | {st['iterations']} | "
                     f"{st['function_evaluations']} / {st['gradient_evaluations']} | "

@@ -151,6 +151,9 @@ def test_total_derivatives_match_fd_of_converged_model(cfg, scales):
                         assert vp.solve(optimize=False).success
                         vals.append(vp.objective())
                     fd.append((vals[0] - vals[1]) / (2 * h))
+    for form, g in grads.items():
+        print(f'reduced gradient, {form} FD in the black box: largest relative difference '
+              f'to central differences of the converged model {np.max(np.abs(g / fd - 1)):.1e}')
     np.testing.assert_allclose(grads['central'], fd, rtol=1e-5)
     np.testing.assert_allclose(grads['forward'], fd, rtol=1e-5)
 
@@ -174,4 +177,5 @@ def test_check_totals_of_the_nlp(cfg, scales):
         J_fd, J_an = np.asarray(d['J_fd']), np.asarray(d['J_fwd'])
         scale = max(np.max(np.abs(J_fd)), 1e-30)
         worst = max(worst, np.max(np.abs(J_an - J_fd)) / scale)
+    print(f'check_totals: largest difference {worst:.1e} of each block\'s largest entry')
     assert worst < 1e-4
