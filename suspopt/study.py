@@ -277,35 +277,28 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, progress: Progress | 
                                            progress=progress)
         low, mixed = problems['low'], problems['mixed']
 
+        def step(fid: str, start: str, result: str, guess: Trajectory | None) -> None:
+            """Evaluate model ``fid`` at design ``start``, optimize it from there (same
+            problem, IPOPT starting from that collocation solution), record, save."""
+            study['evaluations'][f'{fid}/{start}'] = evaluate(
+                config, fid, designs[start], scales=scales, problem=problems[fid],
+                label=start, guess=guess)
+            res = optimize(config, fid, start=designs[start], scales=scales,
+                           problem=problems[fid], guess='keep')
+            study['steps'][fid] = res
+            designs[result] = res['design']
+            study['evaluations'][f'{fid}/{result}'] = _as_evaluation(res)
+            save()
+            if not res['success']:
+                raise _StepFailed(fid, res)
+
         say('step 1/2: low-fidelity model at the initial design (evaluation), then its '
             'optimization from there')
-        guess = initial_guess(config, 'low', designs['initial'])
-        study['evaluations']['low/initial'] = evaluate(
-            config, 'low', designs['initial'], scales=scales, problem=low, label='initial',
-            guess=guess)
-        step1 = optimize(config, 'low', start=designs['initial'], scales=scales, problem=low,
-                         guess='keep')
-        study['steps']['low'] = step1
-        designs['low_optimum'] = step1['design']
-        study['evaluations']['low/low_optimum'] = _as_evaluation(step1)
-        save()
-        if not step1['success']:
-            raise _StepFailed('low', step1)
-
+        step('low', 'initial', 'low_optimum',
+             initial_guess(config, 'low', designs['initial']))
         say('step 2/2: mixed-fidelity model at the low-fidelity optimum (evaluation), then '
             'its optimization from there')
-        low_traj = low.timeseries()
-        study['evaluations']['mixed/low_optimum'] = evaluate(
-            config, 'mixed', designs['low_optimum'], scales=scales, problem=mixed,
-            label='low_optimum', guess=low_traj)
-        step2 = optimize(config, 'mixed', start=designs['low_optimum'], scales=scales,
-                         problem=mixed, guess='keep')
-        study['steps']['mixed'] = step2
-        designs['mixed_optimum'] = step2['design']
-        study['evaluations']['mixed/mixed_optimum'] = _as_evaluation(step2)
-        save()
-        if not step2['success']:
-            raise _StepFailed('mixed', step2)
+        step('mixed', 'low_optimum', 'mixed_optimum', low.timeseries())
 
         say('evaluating every design in both models (IPOPT solves the collocation '
             'equations with the design held)')

@@ -8,6 +8,9 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 
 import pytest  # noqa: E402
 
+from suspopt.config import StudyConfig  # noqa: E402
+from suspopt.study import resolve_scales  # noqa: E402
+
 
 @pytest.fixture(scope='session', autouse=True)
 def _isolated_outputs(tmp_path_factory):
@@ -19,3 +22,15 @@ def _isolated_outputs(tmp_path_factory):
     os.environ.setdefault('SUSPOPT_CACHE_DIR', str(shared / 'suspopt-cache'))
     os.environ['OPENMDAO_WORKDIR'] = str(tmp_path_factory.mktemp('openmdao'))
     yield
+
+
+@pytest.fixture(scope='session')
+def cfg() -> StudyConfig:
+    """The default study (SPEC)."""
+    return StudyConfig()
+
+
+@pytest.fixture(scope='session')
+def scales(cfg) -> tuple[float, ...]:
+    """Its reference normalization (the half car's J_k at the initial design)."""
+    return resolve_scales(cfg)

@@ -8,22 +8,12 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from suspopt.config import DESIGN_NAMES, StudyConfig
+from suspopt.config import DESIGN_NAMES
 from suspopt.problem import VehicleProblem
-from suspopt.study import evaluate, objective_value, optimize, resolve_scales
+from suspopt.study import evaluate, objective_value, optimize
 from suspopt.timemarching import simulate
 
 pytestmark = pytest.mark.slow
-
-
-@pytest.fixture(scope='module')
-def cfg():
-    return StudyConfig()
-
-
-@pytest.fixture(scope='module')
-def scales(cfg):
-    return resolve_scales(cfg)
 
 
 @pytest.fixture(scope='module')
