@@ -30,7 +30,8 @@ import math
 import numpy as np
 import pytest
 
-exu = pytest.importorskip('exudyn')
+# a test dependency ([test] extra): a missing exudyn is a broken install, not a skip
+import exudyn as exu  # noqa: E402
 from exudyn.itemInterface import (CoordinateSpringDamper, LoadForceVector,  # noqa: E402
                                   MarkerBodyPosition, MarkerNodeCoordinate, NodePointGround,
                                   NodeRigidBody2D, ObjectGround, RevoluteJoint2D,
