@@ -82,8 +82,12 @@ def table_markdown(study: dict[str, Any]) -> str:
         'low_optimum': (steps.get('low') or {}).get('design'),
         'mixed_optimum': (steps.get('mixed') or {}).get('design')}
     s = study['scales']
-    lines = [f"Normalization: `{study['normalization']}`, s = ({', '.join(f'{v:.6g}' for v in s.values())}); "
-             'f = Σ 0.25 J_k / s_k.', '',
+    warnings = [f'**Warning:** {w}' for w in study.get('warnings', [])]
+    w = study.get('config', {}).get('objective', {}).get('weights', [0.25] * 4)
+    objective = ' + '.join(f'{wk:g} J{k + 1}/s{k + 1}' for k, wk in enumerate(w))
+    lines = warnings + ([''] if warnings else []) + [
+        f"Normalization: `{study['normalization']}`, s = "
+        f"({', '.join(f'{v:.6g}' for v in s.values())}); f = {objective}.", '',
              '**Table 4 (paper): design and f, each f in the model that produced it**', '',
              '| | k_S1 [N/m] | k_S2 [N/m] | c_S1 [N·s/m] | c_S2 [N·s/m] | f | model |',
              '|---|---|---|---|---|---|---|']
