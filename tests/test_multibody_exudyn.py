@@ -1,23 +1,25 @@
-"""Independent cross-check of the double wishbone against Exudyn (J. Gerstmayr et al.).
+"""Independent cross-check of the suspension linkages against Exudyn (J. Gerstmayr et al.).
 
-The same mechanism is built in Exudyn from the numbers of SPEC §3 (not from suspopt's
-data structures): three planar rigid bodies (``NodeRigidBody2D`` + ``ObjectRigidBody2D``,
-node = centre of mass) W, U, L; the frame F is the ground (``ObjectGround``); four
-``ObjectJointRevolute2D`` at ``MarkerBodyPosition`` points; no gravity. Both codes are
-driven by the same prescribed vertical tyre force at the contact point (0.54, -0.38) on
-W, a smooth pulse F_T(t) = 300 N sin²(π t / 0.1 s) for t < 0.1 s, and by a linear spring
-k = 30 kN/m on the vertical displacement of the spring point of U (= U's centre of
-gravity; in Exudyn an ``ObjectConnectorCoordinateSpringDamper`` on U's y coordinate, in
-suspopt the 'suspension' load carrying F_S = k z_U), so the wheel oscillates at about
-1.3 Hz with 20 mm amplitude.
+Two linkages: the double wishbone of SPEC §3 (a parallelogram: the upright translates)
+and the short-long-arm variation shipped as ``sla_double_wishbone`` (the upright
+rotates: camber gain). Each is built in Exudyn from its numbers typed into this file (not
+from suspopt's data structures): three planar rigid bodies (``NodeRigidBody2D`` +
+``ObjectRigidBody2D``, node = centre of mass) W, U, L; the frame F is the ground
+(``ObjectGround``); four ``ObjectJointRevolute2D`` at ``MarkerBodyPosition`` points; no
+gravity. Both codes are driven by the same prescribed vertical tyre force at the contact
+point (0.54, -0.38) on W, a smooth pulse F_T(t) = 300 N sin²(π t / 0.1 s) for t < 0.1 s,
+and by a linear spring k = 30 kN/m on the vertical displacement of the spring point (the
+centre of gravity of U, resp. L; in Exudyn an ``ObjectConnectorCoordinateSpringDamper``
+on that node's y coordinate, in suspopt the 'suspension' load carrying F_S = k z), so the
+wheel oscillates at about 1.3 Hz with about 20 mm amplitude.
 
 Exudyn integrates with its implicit trapezoidal rule (generalized-alpha in Newmark mode
 with index-2 constraints, step 1e-4 s; the index-3 default with spectral radius 1 gives
 undamped oscillations of the Lagrange multipliers, so its joint forces are noisy),
 suspopt with DOP853 on the partitioned coordinates. The wheel's vertical trajectories are
 compared over 1.5 s (required: 0.5 % of the amplitude; measured ~5e-7), and so are the
-joint reaction forces (suspopt's ``joint_reactions`` from λ vs Exudyn's joint ``Force``
-output; same convention: force on the joint's first body).
+upright's rotation, the joint reaction forces (suspopt's ``joint_reactions`` from λ vs
+Exudyn's joint ``Force`` output; same convention: force on the joint's first body).
 
 Exudyn API read from its documentation (docs/RST/items/ObjectRigidBody2D.rst,
 ObjectJointRevolute2D.rst, LoadForceVector.rst, ObjectConnectorCoordinateSpringDamper.rst
@@ -51,7 +53,27 @@ def tyre_force(t: float) -> float:
     return F_PEAK * math.sin(math.pi * t / T_PULSE) ** 2 if t < T_PULSE else 0.0
 
 
-def run_exudyn():
+#: The linkages, typed in from their numbers (SPEC §3 for the double wishbone; the SLA
+#: variation's file header), not read from suspopt's files: body -> (mass, inertia, CG);
+#: joints (body, body or 'ground', point); the body whose CG carries the spring; the
+#: index of that body's z in suspopt's coordinates (x, z, φ per body, file order).
+LINKAGES = {
+    'double_wishbone': {
+        'bodies': {'W': (80.0, 7.5, (0.54, 0.0)), 'U': (20.0, 0.15, (0.27, 0.2)),
+                   'L': (20.0, 0.15, (0.27, -0.2))},
+        'joints': [('W', 'U', (0.45, 0.2)), ('W', 'L', (0.45, -0.2)),
+                   ('U', 'ground', (0.12, 0.2)), ('L', 'ground', (0.12, -0.2))],
+        'spring': 'U', 'spring_z': 4},
+    'sla_double_wishbone': {
+        'bodies': {'W': (80.0, 7.5, (0.54, 0.0)), 'U': (12.0, 0.06, (0.335, 0.19)),
+                   'L': (28.0, 0.3, (0.275, -0.21))},
+        'joints': [('W', 'U', (0.45, 0.2)), ('W', 'L', (0.45, -0.2)),
+                   ('U', 'ground', (0.22, 0.18)), ('L', 'ground', (0.10, -0.22))],
+        'spring': 'L', 'spring_z': 7},
+}
+
+
+def run_exudyn(linkage: dict):
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
     ground = mbs.AddObject(ObjectGround())
@@ -67,31 +89,37 @@ def run_exudyn():
         cg[b] = pos
         return n, b
 
-    nW, bW = body(80.0, 7.5, (0.54, 0.0))
-    nU, bU = body(20.0, 0.15, (0.27, 0.2))
-    _, bL = body(20.0, 0.15, (0.27, -0.2))
+    nodes, objs = {}, {'ground': ground}
+    for name, (m, J, pos) in linkage['bodies'].items():
+        nodes[name], objs[name] = body(m, J, pos)
 
     def marker(b, p):
         c = cg[b]
         return mbs.AddMarker(MarkerBodyPosition(bodyNumber=b,
                                                 localPosition=[p[0] - c[0], p[1] - c[1], 0.0]))
 
-    joints = [mbs.AddObject(RevoluteJoint2D(markerNumbers=[marker(b1, p), marker(b2, p)]))
-              for b1, b2, p in [(bW, bU, (0.45, 0.2)), (bW, bL, (0.45, -0.2)),
-                                (bU, ground, (0.12, 0.2)), (bL, ground, (0.12, -0.2))]]
+    joints = [mbs.AddObject(RevoluteJoint2D(markerNumbers=[marker(objs[b1], p),
+                                                            marker(objs[b2], p)]))
+              for b1, b2, p in linkage['joints']]
     nG = mbs.AddNode(NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+    spring_node = nodes[linkage['spring']]
     mbs.AddObject(CoordinateSpringDamper(
         markerNumbers=[mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nG, coordinate=1)),
-                       mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nU, coordinate=1))],
+                       mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=spring_node,
+                                                          coordinate=1))],
         stiffness=K_SPRING, damping=0.0))
-    mbs.AddLoad(LoadForceVector(markerNumber=marker(bW, (0.54, -0.38)), loadVector=[0, 1, 0],
+    mbs.AddLoad(LoadForceVector(markerNumber=marker(objs['W'], (0.54, -0.38)),
+                                loadVector=[0, 1, 0],
                                 loadVectorUserFunction=lambda mbs, t, lv: [0.0, tyre_force(t),
                                                                            0.0]))
     sensors = {
-        'W': mbs.AddSensor(SensorNode(nodeNumber=nW, storeInternal=True,
+        'W': mbs.AddSensor(SensorNode(nodeNumber=nodes['W'], storeInternal=True,
                                       outputVariableType=exu.OutputVariableType.Displacement)),
-        'U': mbs.AddSensor(SensorNode(nodeNumber=nU, storeInternal=True,
-                                      outputVariableType=exu.OutputVariableType.Displacement)),
+        'W_phi': mbs.AddSensor(SensorNode(nodeNumber=nodes['W'], storeInternal=True,
+                                          outputVariableType=exu.OutputVariableType.Rotation)),
+        'spring': mbs.AddSensor(SensorNode(
+            nodeNumber=spring_node, storeInternal=True,
+            outputVariableType=exu.OutputVariableType.Displacement)),
     }
     for k, j in enumerate(joints):
         sensors[k] = mbs.AddSensor(SensorObject(objectNumber=j, storeInternal=True,
@@ -113,37 +141,51 @@ def run_exudyn():
     return {k: mbs.GetSensorStoredData(s) for k, s in sensors.items()}
 
 
-@pytest.fixture(scope='module')
-def both():
-    ex = run_exudyn()
+@pytest.fixture(scope='module', params=list(LINKAGES))
+def both(request):
+    linkage = LINKAGES[request.param]
+    ex = run_exudyn(linkage)
     t = ex['W'][:, 0]
-    s = PlanarMultibodySolver(load_mechanism('double_wishbone', suspension=True))
+    s = PlanarMultibodySolver(load_mechanism(request.param, suspension=True))
+    iz = linkage['spring_z']
+    z0 = s.q0[iz]
 
-    def loads(t, q, qd):   # [suspension F_S (acts down on U), tyre F_T (acts up on W)]
-        return np.array([K_SPRING * (q[4] - 0.2), tyre_force(t)])
+    def loads(t, q, qd):   # [suspension F_S (acts down on the arm), tyre F_T (up on W)]
+        return np.array([K_SPRING * (q[iz] - z0), tyre_force(t)])
 
     tr = simulate_mechanism(s, (0.0, T_END), [0.0], [0.0], loads=loads, t_eval=t,
                             max_step=0.01)   # do not step over the 0.1 s pulse
-    return ex, tr, s
+    return ex, tr, s, linkage
 
 
 def test_wheel_trajectory_matches_exudyn(both):
-    ex, tr, _ = both
+    ex, tr, s, linkage = both
     assert ex['W'].shape[0] == round(T_END / OUT_DT) + 1
     np.testing.assert_allclose(tr.t, ex['W'][:, 0], atol=1e-9)
     z_sus, z_exu = tr.q[:, 1], ex['W'][:, 2]
     amp = np.max(np.abs(z_sus))
-    assert 0.015 < amp < 0.025                                 # it oscillated
+    assert 0.01 < amp < 0.03                                   # it oscillated
     rel = np.max(np.abs(z_sus - z_exu)) / amp
-    print(f'\nwheel z: amplitude {amp * 1e3:.2f} mm, max difference {rel:.2e} of it')
+    print(f'\n{s.mechanism.name}: wheel z amplitude {amp * 1e3:.2f} mm, max difference '
+          f'{rel:.2e} of it')
     assert rel < 5e-3
-    # and the rest of the motion: wheel lateral shift, spring point travel
+    # and the rest of the motion: wheel lateral shift, its rotation, spring point travel
+    iz = linkage['spring_z']
     np.testing.assert_allclose(tr.q[:, 0] - 0.54, ex['W'][:, 1], atol=5e-3 * amp)
-    np.testing.assert_allclose(tr.q[:, 4] - 0.2, ex['U'][:, 2], atol=5e-3 * amp)
+    np.testing.assert_allclose(tr.q[:, iz] - s.q0[iz], ex['spring'][:, 2], atol=5e-3 * amp)
+    phi_amp = np.max(np.abs(tr.q[:, 2]))
+    if linkage['spring'] == 'L':                               # the SLA's upright rotates
+        assert phi_amp > 1e-4
+        phi_exu = ex['W_phi'][:, -1]
+        print(f'{s.mechanism.name}: upright rotation amplitude {phi_amp:.2e} rad, max '
+              f'difference {np.max(np.abs(tr.q[:, 2] - phi_exu)) / phi_amp:.2e} of it')
+        np.testing.assert_allclose(tr.q[:, 2], phi_exu, atol=5e-3 * phi_amp)
+    else:                                                      # the parallelogram's does not
+        assert phi_amp < 1e-12
 
 
 def test_joint_reactions_match_exudyn(both):
-    ex, tr, s = both
+    ex, tr, s, linkage = both
     R = s.joint_reactions(tr.lam)                       # (N, 4, 2), on each first body
     scale = np.max(np.abs(R))
     assert scale > 50.0
@@ -151,5 +193,6 @@ def test_joint_reactions_match_exudyn(both):
     for k in range(4):
         d = np.max(np.abs(R[:, k, :] - ex[k][:, 1:3]))
         worst = max(worst, d)
-    print(f'\njoint reactions: max {scale:.1f} N, max difference {worst / scale:.2e} of it')
+    print(f'\n{s.mechanism.name}: joint reactions max {scale:.1f} N, max difference '
+          f'{worst / scale:.2e} of it')
     assert worst < 5e-3 * scale
