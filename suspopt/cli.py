@@ -3,6 +3,7 @@
     suspopt study     [--out DIR] [--config FILE] ...      the paper's two-step study
     suspopt optimize  --fidelity low|mixed [--start K1,K2,C1,C2] [--out DIR] ...
     suspopt evaluate  --fidelity low|mixed --design K1,K2,C1,C2 [--method ...]
+    suspopt pareto    [--fidelity low|mixed] [--points N] [--out DIR] ...   comfort vs road holding
     suspopt init FILE                                     write the paper's case as a study file
     suspopt report DIR                                    re-render table and figures of a run
 
@@ -169,6 +170,30 @@ def cmd_study(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_pareto(args: argparse.Namespace) -> int:
+    from suspopt.pareto import run_pareto
+    from suspopt.study import prepare_out_dir
+    if args.points < 2:
+        raise ConfigError(f'--points: need at least 2, got {args.points}')
+    config = _config(args)
+    out = prepare_out_dir(args.out, args.overwrite)
+    progress, log = _printer(args.quiet)
+    log(f'Pareto front of the {args.fidelity}-fidelity model, {args.points} points; '
+        f'results in {out}')
+    front = run_pareto(config, out, fidelity=args.fidelity, points=args.points,
+                       progress=progress, log=log)
+    print((out / 'table.md').read_text())
+    print(f"results: {out}/pareto.json, {out}/table.md, {out}/figures/pareto.png "
+          f"({front['wall_time_s']:.1f} s)")
+    failed = [p for p in front['points'] if not p['success']]
+    if failed:
+        where = ', '.join(f"{p['alpha']:.3f} ({p['status']})" for p in failed)
+        print(f'suspopt: error: IPOPT did not converge at comfort share(s) {where}; the '
+              'other points are kept', file=sys.stderr)
+        return 1
+    return 0
+
+
 def cmd_init(args: argparse.Namespace) -> int:
     from suspopt.config import default_config_toml
     path = Path(args.file)
@@ -234,6 +259,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--design', metavar='K1,K2,C1,C2', help='design (default: config initial)')
     p.add_argument('--method', choices=('collocation', 'time-marching'), default='collocation')
     p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser('pareto', help='ride comfort against road holding: the Pareto front '
+                                      'by weighted sums', epilog=EPILOG)
+    p.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
+    common(p)
+    p.add_argument('--points', type=int, default=9, metavar='N',
+                   help='comfort shares 0 ... 1 (default: %(default)s)')
+    p.add_argument('--out', default='results/pareto', metavar='DIR',
+                   help='output directory (default: %(default)s)')
+    p.add_argument('--overwrite', action='store_true', help='reuse a non-empty --out')
+    p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
+    p.add_argument('--quiet', action='store_true', help='no progress lines')
+    p.set_defaults(func=cmd_pareto)
 
     p = sub.add_parser('init', help="write the paper's case as a commented study file")
     p.add_argument('file')

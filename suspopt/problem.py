@@ -217,7 +217,7 @@ class VehicleProblem:
         # Jacobian forward and gets the objective gradient (dense in the states) by one
         # reverse solve
         p.setup(mode='auto', check=False)
-        p.set_val('objective.weights', np.asarray(config.objective.weights))
+        self.set_weights(config.objective.weights)
         p.set_val('objective.scales', np.asarray(self.scales))
         phase.set_time_val(initial=0.0, duration=config.maneuver.horizon)
         self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
@@ -230,6 +230,11 @@ class VehicleProblem:
         self.times = {'setup_s': time.perf_counter() - t0}
 
     # ---------------------------------------------------------------- values
+    def set_weights(self, weights) -> None:
+        """The objective weights w_k (inputs of the objective: a new weighting needs no new
+        setup or coloring, e.g. along a Pareto front)."""
+        self.problem.set_val('objective.weights', np.asarray(weights, dtype=float))
+
     def set_design(self, design: dict[str, float]) -> None:
         """Set the design (all four values) as the starting point / fixed design."""
         for name in DESIGN_NAMES:

@@ -1,6 +1,7 @@
 """Tables and figures of a study, rendered from its recorded data (``suspopt report DIR``).
 
-(A ``suspopt optimize`` directory is rendered too: :func:`render_run`.)
+(A ``suspopt optimize`` directory is rendered too, :func:`render_run`, and a
+``suspopt pareto`` one, :func:`render_pareto`.)
 
 Reads ``study.json`` (designs, objectives, IPOPT statistics), the SQLite case recorders
 ``low.sql``/``mixed.sql`` (the trajectories of every design in each model, as recorded by
@@ -61,8 +62,8 @@ def load_study(out_dir: str | Path) -> dict[str, Any]:
     try:
         return json.loads(path.read_text())
     except FileNotFoundError:
-        raise ConfigError(f'{out_dir}: no study.json or result.json (not a suspopt study '
-                          'or optimize output directory)') from None
+        raise ConfigError(f'{out_dir}: no study.json, pareto.json or result.json (not a '
+                          'suspopt output directory)') from None
     except json.JSONDecodeError as err:
         raise ConfigError(f'{path}: unreadable ({err})') from None
 
@@ -290,6 +291,87 @@ def render_run(out_dir: str | Path) -> list[Path]:
     return written
 
 
+def pareto_markdown(front: dict[str, Any]) -> str:
+    """A comfort/road-holding front (:mod:`suspopt.pareto`), as Markdown."""
+    s = front['scales']
+    lines = [f"Pareto front of the {FIDELITY_LABELS[front['fidelity']]} model: comfort "
+             'C = (J1/s1 + J2/s2)/2 against road holding R = (J3/s3 + J4/s4)/2 '
+             f"(`{front['normalization']}` normalization, s = "
+             f"({', '.join(f'{v:.6g}' for v in s.values())})); weights "
+             '(α/2, α/2, (1−α)/2, (1−α)/2) for comfort share α.', '',
+             '| α | k_S1 [N/m] | k_S2 [N/m] | c_S1 [N·s/m] | c_S2 [N·s/m] | C | R | '
+             'f_α | IPOPT | iterations |', '|---|---|---|---|---|---|---|---|---|---|']
+    for pt in front['points']:
+        d = pt['design']
+        lines.append(f"| {pt['alpha']:.3f} | " + ' | '.join(
+            f'{d[n]:.0f}' for n in ('k_S1', 'k_S2', 'c_S1', 'c_S2'))
+            + f" | {pt['comfort']:.4f} | {pt['road_holding']:.4f} | {pt['objective']:.4f} | "
+            f"{pt['status']} | {pt['iterations']} |")
+    init = front.get('initial')
+    if init:
+        d = init['design']
+        lines.append('| initial design | ' + ' | '.join(
+            f'{d[n]:.0f}' for n in ('k_S1', 'k_S2', 'c_S1', 'c_S2'))
+            + f" | {init['comfort']:.4f} | {init['road_holding']:.4f} | | | |")
+    if front.get('wall_time_s') is not None:
+        lines += ['', f"{len(front['points'])} optimizations on one problem: "
+                  f"{front['wall_time_s']:.1f} s in all."]
+    return '\n'.join(lines) + '\n'
+
+
+def render_pareto(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and ``figures/pareto.png`` of a Pareto directory from its
+    ``pareto.json``: the front (C against R, each point labelled with α; the initial
+    design for reference) and the designs along it."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from suspopt.config import DESIGN_NAMES, config_from_dict
+    out = Path(out_dir)
+    path = out / 'pareto.json'
+    try:
+        front = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise ConfigError(f'{path}: unreadable ({err})') from None
+    (out / 'table.md').write_text(pareto_markdown(front))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    pts = front['points']
+    ok = [p for p in pts if p['success']]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    a1.plot([p['comfort'] for p in ok], [p['road_holding'] for p in ok], 'o-',
+            color='tab:blue', label='optima (IPOPT converged)')
+    for p in ok:
+        a1.annotate(f"α={p['alpha']:.2f}", (p['comfort'], p['road_holding']),
+                    textcoords='offset points', xytext=(5, 4), fontsize=8)
+    bad = [p for p in pts if not p['success']]
+    if bad:
+        a1.plot([p['comfort'] for p in bad], [p['road_holding'] for p in bad], 'x',
+                color='tab:red', label='not converged')
+    init = front.get('initial')
+    if init:
+        a1.plot([init['comfort']], [init['road_holding']], 's', color='gray',
+                label='initial design, same model')
+    a1.set(xlabel='comfort C = (J1/s1 + J2/s2)/2  (smaller: smoother ride)',
+           ylabel='road holding R = (J3/s3 + J4/s4)/2  (smaller: better grip)',
+           title=f"Pareto front, {FIDELITY_LABELS[front['fidelity']]} model")
+    a1.grid(alpha=0.3)
+    a1.legend(fontsize=8)
+    bounds = config_from_dict(front['config']).design.bounds()
+    for name, style in zip(DESIGN_NAMES, ('o-', 's-', '^--', 'v--')):
+        lo, hi = bounds[name]
+        a2.plot([p['alpha'] for p in ok], [(p['design'][name] - lo) / (hi - lo) for p in ok],
+                style, ms=4, label=name)
+    a2.set(xlabel='comfort share α', ylabel='design, scaled to its bounds [0, 1]',
+           title='Spring rates and damping along the front', ylim=(-0.05, 1.05))
+    a2.grid(alpha=0.3)
+    a2.legend(fontsize=8)
+    fig.savefig(figs / 'pareto.png', dpi=120)
+    plt.close(fig)
+    return [out / 'table.md', figs / 'pareto.png']
+
+
 def render(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a (possibly partial) study directory, or of
     a ``suspopt optimize`` directory (:func:`render_run`)."""
@@ -298,6 +380,8 @@ def render(out_dir: str | Path) -> list[Path]:
     import matplotlib.pyplot as plt
 
     out = Path(out_dir)
+    if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
+        return render_pareto(out)
     if not (out / 'study.json').exists() and (out / 'result.json').exists():
         return render_run(out)
     study = load_study(out)

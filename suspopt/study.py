@@ -154,11 +154,14 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
              scales: tuple[float, ...] | None = None, out_dir: str | Path | None = None,
              progress: Progress | None = None,
              problem: VehicleProblem | None = None,
-             guess: Trajectory | None | str = 'auto') -> dict[str, Any]:
+             guess: Trajectory | None | str = 'auto',
+             label: str | None = None) -> dict[str, Any]:
     """Optimize the design of one model (SPEC §1) from ``start`` (default: the configured
     initial design). Writes ``result.json`` and the SQLite case recorder ``cases.sql`` to
-    ``out_dir`` if given. ``problem`` reuses an already built problem of this fidelity.
-    Returns the result dictionary; ``success`` tells whether IPOPT converged."""
+    ``out_dir`` if given. ``problem`` reuses an already built problem of this fidelity (with
+    this config's weights); ``label`` names the optimum's case in its recorder (default
+    ``'<fidelity>_optimum'``). Returns the result dictionary; ``success`` tells whether
+    IPOPT converged."""
     t0 = time.perf_counter()
     start = dict(config.design.initial() if start is None else start)
     scales = resolve_scales(config) if scales is None else scales
@@ -167,13 +170,14 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
         recorder = None if out_dir is None else Path(out_dir) / 'cases.sql'
         problem = VehicleProblem(config, fidelity, scales, recorder=recorder, progress=progress)
     try:
+        problem.set_weights(config.objective.weights)
         problem.set_design(start)
         if guess == 'auto':
             guess = initial_guess(config, fidelity, start)
         if guess != 'keep':
             problem.set_initial_guess(guess)
         res = problem.solve(optimize=True)
-        problem.record(f'{fidelity}_optimum')
+        problem.record(label or f'{fidelity}_optimum')
     except ModelError as err:
         if out_dir is not None:  # what failed, where, is part of the results
             write_json(Path(out_dir) / 'result.json', {
@@ -222,6 +226,7 @@ def evaluate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
     if own:
         problem = VehicleProblem(config, fidelity, scales)
     try:
+        problem.set_weights(config.objective.weights)
         problem.set_design(design)
         if guess == 'auto':
             guess = initial_guess(config, fidelity, design)
