@@ -69,7 +69,7 @@ class VehicleRHS:
                                        SuspensionModule(v.rear.mechanism))
             # identical front and rear mechanisms: one batched solver call for both axles
             self._shared = self.modules[0].mechanism == self.modules[1].mechanism
-            self._guess: dict[int, np.ndarray] = {}
+            self._guess: dict[int, tuple[np.ndarray, ...]] = {}
         self.max_constraint_residual = 0.0
         self.n_evals = 0
 
@@ -79,11 +79,17 @@ class VehicleRHS:
         out = {}
         for m, axles in groups:
             z = np.concatenate([z_W[i] for i in axles])
-            guess = self._guess.get(m)
-            kin = self.modules[m].kinematics(z, np.concatenate([v_W[i] for i in axles]),
-                                             guess if guess is not None
-                                             and guess.shape[0] == z.size else None)
-            self._guess[m] = kin.state.q
+            guess = None
+            if m in self._guess and self._guess[m][0].shape[0] == z.size:
+                # Newton starts from the last pose moved along its tangent: the dependent
+                # velocities per unit wheel-travel rate (where that rate is not ~0)
+                q, qd, z_prev, v_prev = self._guess[m]
+                safe = np.abs(v_prev) > 1e-9
+                step = np.where(safe, (z - z_prev) / np.where(safe, v_prev, 1.0), 0.0)
+                guess = q + qd * step[:, None]
+            v = np.concatenate([v_W[i] for i in axles])
+            kin = self.modules[m].kinematics(z, v, guess)
+            self._guess[m] = (kin.state.q, kin.state.qd, z, v)
             self.max_constraint_residual = max(self.max_constraint_residual,
                                                self.modules[m].constraint_residual(kin.state))
             out[m] = (axles, kin)
