@@ -35,10 +35,11 @@ SIGNALS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
            ('wheel_z2', r'$z_{W2}$ [m]', 'rear wheel displacement'))
 
 
-def read_trajectory(recorder: str | Path, label: str) -> Trajectory | None:
-    """The trajectory recorded as problem case ``label`` (None if absent)."""
+def read_trajectory(recorder: Any, label: str) -> Trajectory | None:
+    """The trajectory recorded as problem case ``label`` (None if absent); ``recorder``
+    is a case recorder file or an open ``CaseReader`` (opening one takes ~0.5 s: reuse)."""
     import openmdao.api as om
-    cr = om.CaseReader(str(recorder))
+    cr = om.CaseReader(str(recorder)) if isinstance(recorder, (str, Path)) else recorder
     if label not in cr.list_cases('problem', recurse=False, out_stream=None):
         return None
     case = cr.get_case(label)
@@ -392,15 +393,15 @@ def render(out_dir: str | Path) -> list[Path]:
 
     written.append(_road_figure(figs / 'road.png', study['config']))
 
+    import openmdao.api as om
+
+    from suspopt.study import STUDY_DESIGNS
     traj = {}
     for fid in ('low', 'mixed'):
-        rec = out / f'{fid}.sql'
-        if rec.exists():
-            for name, label in (('initial', 'initial'), ('low_optimum', 'low_optimum'),
-                                ('mixed_optimum', 'mixed_optimum')):
-                tr = read_trajectory(rec, label) or read_trajectory(rec, f'{fid}_optimum'
-                                                                    if name == f'{fid}_optimum'
-                                                                    else label)
+        if (out / f'{fid}.sql').exists():
+            rec = om.CaseReader(str(out / f'{fid}.sql'))
+            for name in STUDY_DESIGNS:  # recorded under the design's name in each model
+                tr = read_trajectory(rec, name)
                 if tr is not None:
                     traj[fid, name] = tr
     low_style = {'color': 'tab:blue', 'lw': 1.3}
