@@ -72,7 +72,11 @@ class _OptionProbe:
 def _c_stdout_to(fh):
     """Send what C code prints on the process's standard output to ``fh``."""
     sys.stdout.flush()
-    libc = ctypes.CDLL(None)
+    try:
+        libc = ctypes.CDLL(None)
+    except OSError:  # no C library to flush through: IPOPT's words go where they go
+        yield
+        return
     saved = os.dup(1)
     os.dup2(fh.fileno(), 1)
     try:
@@ -172,6 +176,9 @@ class _ColoredNonzerosTotalJac(_TotalJacInfo):
         self.J = self.J.view(_IgnoreZeroing)
         self.nonzeros = np.zeros(col._nzrows.size)
         self._positions: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        # (row, col) of every nonzero as one sortable key, to find a color's positions
+        self._nz_keys = col._nzrows.astype(np.int64) * col._shape[1] + col._nzcols
+        self._nz_order = np.argsort(self._nz_keys, kind='stable')
 
     def _color_positions(self, inds) -> tuple[np.ndarray, np.ndarray]:
         """(rows of the solution vector, positions in :attr:`nonzeros`) of one color."""
@@ -182,11 +189,9 @@ class _ColoredNonzerosTotalJac(_TotalJacInfo):
             rows = [np.asarray(row_col_map[i], dtype=int) for i in inds]
             cols = np.repeat(np.asarray(inds, dtype=int), [r.size for r in rows])
             rows = np.concatenate(rows)
-            n = col._shape[1]
-            nz_keys = col._nzrows.astype(np.int64) * n + col._nzcols
-            order = np.argsort(nz_keys, kind='stable')
-            pos = order[np.searchsorted(nz_keys[order], rows.astype(np.int64) * n + cols)]
-            self._positions[key] = (rows, pos)
+            keys = rows.astype(np.int64) * col._shape[1] + cols
+            order = self._nz_order
+            self._positions[key] = (rows, order[np.searchsorted(self._nz_keys[order], keys)])
         return self._positions[key]
 
     def simul_coloring_jac_setter(self, inds, mode, meta):
