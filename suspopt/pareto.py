@@ -94,9 +94,7 @@ def run_pareto(config: StudyConfig, out_dir: str | Path, *, fidelity: str = 'low
                 start, guess = res['design'], 'keep'
             else:
                 guess = 'auto'
-        data['problem'] = {'setup_s': problem.times['setup_s'],
-                           'coloring_s': problem.times.get('coloring_s', 0.0),
-                           'coloring_from_cache': problem.coloring_from_cache}
+        data['problem'] = problem.stats()
         data['wall_time_s'] = time.perf_counter() - t0
         data['complete'] = True
         save()

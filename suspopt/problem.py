@@ -289,6 +289,14 @@ class VehicleProblem:
                 for i, m in enumerate(self.modules))
         return Trajectory(t=t, values=values, J=self.terms(), info=info)
 
+    def stats(self) -> dict[str, Any]:
+        """Setup and coloring times, whether the coloring came from the cache, and all
+        multibody solver calls so far (for the results files)."""
+        return {'setup_s': self.times['setup_s'],
+                'coloring_s': self.times.get('coloring_s', 0.0),
+                'coloring_from_cache': self.coloring_from_cache,
+                'multibody_calls_total': self.multibody_calls()}
+
     def multibody_calls(self) -> dict[str, int]:
         """Batched multibody solver calls so far (position analyses, augmented solves)."""
         out: dict[str, int] = {}

@@ -58,15 +58,19 @@ def read_trajectory(recorder: Any, label: str) -> Trajectory | None:
                       info={'method': 'collocation', 'label': label})
 
 
-def load_study(out_dir: str | Path) -> dict[str, Any]:
-    path = Path(out_dir) / 'study.json'
+def _read_json(path: Path) -> dict[str, Any]:
+    """A results file of a run; a missing or damaged one is a ConfigError naming it."""
     try:
         return json.loads(path.read_text())
     except FileNotFoundError:
-        raise ConfigError(f'{out_dir}: no study.json, pareto.json or result.json (not a '
+        raise ConfigError(f'{path.parent}: no study.json, pareto.json or result.json (not a '
                           'suspopt output directory)') from None
-    except json.JSONDecodeError as err:
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ConfigError(f'{path}: unreadable ({err})') from None
+
+
+def load_study(out_dir: str | Path) -> dict[str, Any]:
+    return _read_json(Path(out_dir) / 'study.json')
 
 
 # ---------------------------------------------------------------------------- tables
@@ -267,11 +271,7 @@ def render_run(out_dir: str | Path) -> list[Path]:
     import matplotlib
     matplotlib.use('Agg')
     out = Path(out_dir)
-    path = out / 'result.json'
-    try:
-        res = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise ConfigError(f'{path}: unreadable ({err})') from None
+    res = _read_json(out / 'result.json')
     (out / 'table.md').write_text(run_markdown(res))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
@@ -330,11 +330,7 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
 
     from suspopt.config import DESIGN_NAMES, config_from_dict
     out = Path(out_dir)
-    path = out / 'pareto.json'
-    try:
-        front = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise ConfigError(f'{path}: unreadable ({err})') from None
+    front = _read_json(out / 'pareto.json')
     (out / 'table.md').write_text(pareto_markdown(front))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)

@@ -349,11 +349,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, progress: Progress | 
                        'road; more --segments')
                 study.setdefault('warnings', []).append(msg)
                 say(f'warning: {msg}')
-        study['problems'] = {fid: {'setup_s': prob.times['setup_s'],
-                                   'coloring_s': prob.times.get('coloring_s', 0.0),
-                                   'coloring_from_cache': prob.coloring_from_cache,
-                                   'multibody_calls_total': prob.multibody_calls()}
-                             for fid, prob in problems.items()}
+        study['problems'] = {fid: prob.stats() for fid, prob in problems.items()}
         study['wall_time_s'] = time.perf_counter() - t_start
         study['complete'] = True
         save()
