@@ -1,0 +1,56 @@
+"""Profile one optimization (cProfile): where the time of a solve goes.
+
+    python benchmarks/profile_solve.py [--fidelity low|mixed] [--segments 80] [--top 25]
+                                       [--sort tottime|cumulative]
+
+Builds the problem and solves it once unprofiled (so that the total coloring is cached
+and imports are warm), then profiles a second build + solve from the same start (low:
+the initial design; mixed: the low-fidelity optimum) and prints the top functions, the
+IPOPT iterations and the multibody solver calls.
+"""
+from __future__ import annotations
+
+import argparse
+import cProfile
+import dataclasses
+import pstats
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import git_revision, machine, timed_optimize  # noqa: E402
+
+from suspopt.config import StudyConfig  # noqa: E402
+from suspopt.study import optimize, resolve_scales  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
+    ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
+    ap.add_argument('--top', type=int, default=25)
+    ap.add_argument('--sort', choices=('tottime', 'cumulative'), default='tottime')
+    args = ap.parse_args()
+    cfg = StudyConfig()
+    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
+                                                        segments=args.segments))
+    scales = resolve_scales(cfg)
+    start = cfg.design.initial()
+    if args.fidelity == 'mixed':
+        start = optimize(cfg, 'low', scales=scales)['design']
+    timed_optimize(cfg, args.fidelity, scales, start)['problem'].cleanup()  # warm-up
+    prof = cProfile.Profile()
+    prof.enable()
+    out = timed_optimize(cfg, args.fidelity, scales, start)
+    prof.disable()
+    out.pop('problem').cleanup()
+    print(f'# {args.fidelity}-fidelity optimize, {args.segments} x 5 — {machine()}, '
+          f'suspopt {git_revision()}')
+    print(f"setup {out['setup']:.3f} s, guess {out['guess']:.3f} s, solve {out['solve']:.3f} s "
+          f"(under the profiler), {out['iterations']} IPOPT iterations, multibody calls "
+          f"{out['calls'] or '—'}\n")
+    pstats.Stats(prof).sort_stats(args.sort).print_stats(args.top)
+
+
+if __name__ == '__main__':
+    main()
