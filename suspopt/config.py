@@ -357,7 +357,7 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
     elif obj.scales:
         errs.add('objective.scales', "only used with normalization = 'custom'")
     tr = cfg.transcription
-    if tr.order < 2 and tr.order > 0:  # Radau with one point per segment degenerates
+    if 0 < tr.order < 2:  # Radau with one point per segment degenerates (order <= 0: above)
         errs.add('transcription.order', f'must be >= 2 (Radau points per segment), got {tr.order}')
     op = cfg.optimizer
     if not 0 <= op.print_level <= 12:
