@@ -1,7 +1,7 @@
 """Cache of total-derivative colorings, keyed by the model's structure.
 
-Computing the total coloring costs several full Jacobians (``../shared/FINDINGS.md``: about
-4 s of a 6 s low-fidelity solve). The sparsity depends only on the model's structure —
+The total-Jacobian sparsity and its coloring (:mod:`suspopt.driver.sparsity`) depend only
+on the model's structure —
 fidelity, grid, the mechanisms' topology and the code
 that builds the model — not on numbers (masses, road, design), so one coloring serves
 every study with the same structure. The key hashes exactly that structure, including
@@ -23,9 +23,10 @@ import dymos
 import openmdao
 
 from suspopt.config import StudyConfig
+from suspopt.driver.sparsity import Coloring
 
 _MODEL_SOURCES = ('models', 'multibody/components.py', 'multibody/suspension.py',
-                  'problem.py', 'road.py', 'driver.py', 'cache.py')
+                  'problem.py', 'road.py', 'driver', 'cache.py')
 
 
 def cache_dir() -> Path:
@@ -64,19 +65,18 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
     return hashlib.sha256(blob).hexdigest()[:32]
 
 
-def load(key: str):
-    """The cached :class:`~openmdao.utils.coloring.Coloring` for ``key``, or None."""
-    from openmdao.utils.coloring import Coloring
-    path = cache_dir() / f'{key}.pkl'
+def load(key: str) -> Coloring | None:
+    """The cached :class:`~suspopt.driver.sparsity.Coloring` for ``key``, or None."""
+    path = cache_dir() / f'{key}.npz'
     if not path.is_file():
         return None
     try:
-        return Coloring.load(str(path))
-    except Exception:  # unreadable or from an incompatible version: recompute
+        return Coloring.load(path)
+    except Exception:  # unreadable or damaged: recompute
         return None
 
 
-def store(key: str, coloring) -> Path | None:
+def store(key: str, coloring: Coloring) -> Path | None:
     """Save a coloring under ``key`` atomically; a read-only cache is silently skipped."""
     directory = cache_dir()
     try:
@@ -84,7 +84,7 @@ def store(key: str, coloring) -> Path | None:
         fd, tmp = tempfile.mkstemp(dir=directory, suffix='.tmp')
         os.close(fd)
         coloring.save(tmp)
-        path = directory / f'{key}.pkl'
+        path = directory / f'{key}.npz'
         os.replace(tmp, path)
         return path
     except OSError:

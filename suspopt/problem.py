@@ -179,37 +179,25 @@ class VehicleProblem:
                                                     config.maneuver.horizon)
         p.model.add_subsystem('quadrature', ObjectiveQuadratureComp(weights=self._quadrature))
         p.model.add_subsystem('objective', WeightedObjectiveComp())
-        p.model.connect('phase.timeseries.dJ_dt', 'quadrature.dJ_dt')
+        # straight from the ODE: the timeseries then is on no derivative path
+        p.model.connect('phase.rhs_all.dJ_dt', 'quadrature.dJ_dt')
         p.model.connect('quadrature.J', 'objective.J')
         p.model.add_objective('objective.f')
 
-        drv = self.driver = p.driver = IpoptDriver()
-        opt = config.optimizer
-        drv.options['max_iter'] = opt.max_iter
-        drv.options['tol'] = opt.tol
-        drv.options['print_level'] = opt.print_level
-        drv.options['progress'] = progress
-        drv.options['watch'] = [f'phase.parameters:{n}' for n in DESIGN_NAMES]
-        drv.opt_settings.update(opt.options)
         self.cache_key = cache.coloring_key(config, fidelity)
         self.use_cache = use_cache
-        self._cached_coloring = cache.load(self.cache_key) if use_cache else None
-        self.coloring_from_cache = self._cached_coloring is not None
-        if self._cached_coloring is not None:
-            drv.use_constraint_coloring(self._cached_coloring)
-        else:
-            # one Jacobian with randomized partials (declared sparsity) detects the sparsity
-            drv.declare_constraint_coloring(num_full_jacs=1)
+        cached = cache.load(self.cache_key) if use_cache else None
+        self.coloring_from_cache = cached is not None
+        opt = config.optimizer
+        self.driver = IpoptDriver(p, max_iter=opt.max_iter, tol=opt.tol,
+                                  print_level=opt.print_level, progress=progress,
+                                  watch=[f'phase.parameters:{n}' for n in DESIGN_NAMES],
+                                  coloring=cached, opt_settings=opt.options)
 
         self.recorder_path = None
         if recorder is not None:
             self.recorder_path = Path(recorder).resolve()
             rec = om.SqliteRecorder(str(self.recorder_path), record_viewer_data=False)
-            drv.add_recorder(rec)
-            drv.recording_options['record_desvars'] = False
-            drv.recording_options['record_constraints'] = False
-            drv.recording_options['record_objectives'] = True
-            drv.recording_options['includes'] = [f'phase.parameters:{n}' for n in DESIGN_NAMES]
             p.add_recorder(rec)
             p.recording_options['includes'] = ['*']
 
@@ -312,22 +300,19 @@ class VehicleProblem:
         p, drv = self.problem, self.driver
         calls0 = self.multibody_calls()
         free = self.opt_names if optimize else []
-        drv.options['pinned'] = [f'phase.parameters:{n}' for n in DESIGN_NAMES
-                                 if n not in free]
+        pinned = [f'phase.parameters:{n}' for n in DESIGN_NAMES if n not in free]
         t0 = time.perf_counter()
         try:
             p.run_model()
         except om.AnalysisError as err:
             raise ModelError(f'model evaluation failed at the starting point: {err}') from None
         t1 = time.perf_counter()
+        computed = drv.coloring is None
         coloring = drv.total_coloring()
         t2 = time.perf_counter()
-        if self._cached_coloring is None and coloring is not None:
-            # keep it for the next solves of this problem, and for other problems
-            self._cached_coloring = coloring
-            if self.use_cache:
-                cache.store(self.cache_key, coloring)
-        p.run_driver()
+        if computed and coloring is not None and self.use_cache:
+            cache.store(self.cache_key, coloring)  # for other problems of this structure
+        drv.run(pinned=pinned)
         t3 = time.perf_counter()
         terms = self.terms()
         success = drv.status in (0, 1)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -157,14 +158,19 @@ ISO8608_CLASSES = {c: 16e-6 * 4.0**i for i, c in enumerate('ABCDEFGH')}
 
 @dataclass(frozen=True)
 class ISO8608Road(RoadProfile):
-    """A random road of ISO 8608 class ``road_class`` as a sum of ``n_waves`` cosines.
+    """A random road of ISO 8608 class ``road_class``: a sum of cosines, one per frequency
+    line ``n_k = k / length`` in ``[n_min, n_max]`` cycle/m.
 
-    Displacement PSD ``G_d(n) = G_d(n0) (n/n0)^-2`` with ``n0 = 0.1`` cycle/m, sampled on
-    ``n_waves`` equal frequency bins of ``[n_min, n_max]`` cycle/m, one cosine per bin with
-    the bin's exact power and a random phase from ``seed`` (harmonic superposition). ``n_max`` defaults to
-    1 cycle/m, i.e. 10 Hz at 10 m/s, which the default collocation grid resolves; raise it
-    together with the number of segments. The first ``fade_in`` metres fade in with a
-    half-cosine window so that the zero initial state of SPEC §1 is consistent.
+    Displacement PSD ``G_d(n) = G_d(n0) (n/n0)^-2`` with ``n0 = 0.1`` cycle/m; each line
+    carries the exact power of its band ``n_k ± 1/(2 length)`` (so the variance is exact),
+    with a random phase from ``seed`` (harmonic superposition). The lines are ``1/length``
+    apart, so the profile does not repeat within ``length`` metres, and the same seed gives
+    the same road for any drive up to ``length``. It is synthesized once by an inverse FFT
+    on a uniform grid of spacing ``1/(16 n_max)`` (the sum of cosines exactly at the grid
+    points) and interpolated by a cubic spline (C², so no breakpoints): evaluating it costs
+    the same whatever the number of cosines. ``n_max`` defaults to 1 cycle/m (10 Hz at
+    10 m/s). The first ``fade_in`` metres fade in with a half-cosine window so that the
+    zero initial state of SPEC §1 is consistent.
     """
 
     kind: ClassVar[str] = 'iso8608'
@@ -172,19 +178,30 @@ class ISO8608Road(RoadProfile):
     seed: int = 0
     n_min: float = 0.011
     n_max: float = 1.0
-    n_waves: int = 200
+    length: float = 2000.0
     fade_in: float = 2.0
 
-    def _waves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """One cosine per frequency bin: at the bin's middle, carrying the bin's exact power
-        ∫ G_d dn = G_d(n0) n0² (1/a - 1/b), so the variance is exact for any bin count."""
-        edges = np.linspace(self.n_min, self.n_max, self.n_waves + 1)
-        n = 0.5 * (edges[:-1] + edges[1:])
+    #: grid points per wavelength of n_max (cubic spline interpolation between them)
+    samples_per_wavelength: ClassVar[int] = 16
+    #: largest synthesis grid (memory and time guard; see :meth:`validate`)
+    max_samples: ClassVar[int] = 20_000_000
+
+    def lines(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Frequencies [cycle/m], amplitudes [m] and phases [rad] of the cosines."""
+        dn = 1.0 / self.length
+        k = np.arange(int(np.ceil(self.n_min / dn)), int(np.floor(self.n_max / dn)) + 1)
+        n = k * dn
+        a = np.maximum(n - 0.5 * dn, self.n_min)
+        b = np.minimum(n + 0.5 * dn, self.n_max)
         g0 = ISO8608_CLASSES[self.road_class.upper()]
-        power = g0 * 0.1**2 * (1.0 / edges[:-1] - 1.0 / edges[1:])
-        amp = np.sqrt(2.0 * power)
-        phase = np.random.default_rng(self.seed).uniform(0.0, 2.0 * np.pi, self.n_waves)
-        return 2.0 * np.pi * n, amp, phase
+        power = g0 * 0.1**2 * (1.0 / a - 1.0 / b)
+        phase = np.random.default_rng(self.seed).uniform(0.0, 2.0 * np.pi, n.size)
+        return n, np.sqrt(2.0 * power), phase
+
+    @property
+    def _spline(self):
+        return _iso8608_spline(self.road_class.upper(), self.seed, self.n_min, self.n_max,
+                               self.length)
 
     def _window(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.fade_in <= 0.0:
@@ -195,22 +212,16 @@ class ISO8608Road(RoadProfile):
                       0.5 * np.pi / self.fade_in * np.sin(np.pi * x), 0.0)
         return w, dw
 
-    def _raw(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k, amp, phase = self._waves()
-        arg = np.multiply.outer(s, k) + phase
-        return np.cos(arg) @ amp, -(np.sin(arg) * k) @ amp
-
     def r(self, s: ArrayLike) -> np.ndarray:
         s = np.asarray(s, dtype=float)
-        r, _ = self._raw(s)
         w, _ = self._window(s)
-        return w * r
+        return w * self._spline(np.clip(s, 0.0, self.length))
 
     def dr_ds(self, s: ArrayLike) -> np.ndarray:
         s = np.asarray(s, dtype=float)
-        r, dr = self._raw(s)
+        sc = np.clip(s, 0.0, self.length)
         w, dw = self._window(s)
-        return dw * r + w * dr
+        return dw * self._spline(sc) + w * self._spline(sc, 1)
 
     def breakpoints(self) -> list[float]:
         return [0.0, self.fade_in] if self.fade_in > 0.0 else [0.0]
@@ -223,8 +234,19 @@ class ISO8608Road(RoadProfile):
         if not 0.0 < self.n_min < self.n_max:
             errs.append(f'{where}.n_min/n_max: need 0 < n_min < n_max, '
                         f'got {self.n_min}, {self.n_max}')
-        if self.n_waves < 1:
-            errs.append(f'{where}.n_waves: must be >= 1, got {self.n_waves}')
+        elif not self.length > 0.0:
+            errs.append(f'{where}.length: must be > 0, got {self.length}')
+        elif self.length * self.samples_per_wavelength * self.n_max > self.max_samples:
+            errs.append(f'{where}.length: {self.length:g} m at n_max = {self.n_max:g} cycle/m '
+                        f'needs {self.length * self.samples_per_wavelength * self.n_max:.3g} '
+                        f'road samples (at most {self.max_samples:.3g}); shorten it or lower '
+                        'n_max')
+        elif self.length < required_length:
+            errs.append(f'{where}.length: the drive needs {required_length:g} m (speed × '
+                        f'horizon) but the road is {self.length:g} m long')
+        elif self.length * self.n_min < 1.0:
+            errs.append(f'{where}.length: {self.length:g} m holds no frequency line of '
+                        f'[{self.n_min:g}, {self.n_max:g}] cycle/m (lines are 1/length apart)')
         if self.fade_in < 0.0:
             errs.append(f'{where}.fade_in: must be >= 0, got {self.fade_in}')
         return errs
@@ -278,6 +300,23 @@ class CSVRoad(RoadProfile):
             return [f'{where}.file: {self.file} covers s = {s[0]:g}..{s[-1]:g} m but the drive '
                     f'needs 0..{required_length:g} m (speed × horizon)']
         return []
+
+
+@functools.lru_cache(maxsize=8)
+def _iso8608_spline(road_class: str, seed: int, n_min: float, n_max: float, length: float):
+    """The synthesized profile of :class:`ISO8608Road` (a pure function of its parameters,
+    memoized: every model and integrator of a study shares one synthesis)."""
+    from scipy.interpolate import CubicSpline
+    road = ISO8608Road(road_class=road_class, seed=seed, n_min=n_min, n_max=n_max,
+                       length=length)
+    n, amp, phase = road.lines()
+    samples = int(np.ceil(length * ISO8608Road.samples_per_wavelength * n_max))
+    k = np.rint(n * length).astype(np.int64)
+    spec = np.zeros(samples // 2 + 1, dtype=complex)
+    spec[k] = 0.5 * amp * np.exp(1j * phase) * samples
+    h = np.fft.irfft(spec, n=samples)  # Σ a cos(2π n s + φ) at s = i·length/samples
+    s = np.arange(samples + 1) * (length / samples)
+    return CubicSpline(s, np.append(h, h[0]), bc_type='periodic')
 
 
 def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -334,14 +373,16 @@ def make_road(description: dict[str, Any]) -> RoadProfile:
 
 
 def wheel_road_inputs(road: RoadProfile, t: ArrayLike, speed: float,
-                      offsets: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+                      offsets: tuple[float, ...], rates: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray | None]:
     """Road heights and rates under each wheel: ``δ_i(t) = r(v t - offset_i)`` (SPEC §4).
 
-    Returns arrays of shape ``(len(offsets),) + shape(t)``: heights [m] and rates [m/s].
+    Returns arrays of shape ``(len(offsets),) + shape(t)``: heights [m] and rates [m/s]
+    (None unless ``rates``).
     """
     t = np.asarray(t, dtype=float)
     s = speed * t[None, ...] - np.asarray(offsets, dtype=float).reshape((-1,) + (1,) * t.ndim)
-    return road.r(s), speed * road.dr_ds(s)
+    return road.r(s), (speed * road.dr_ds(s) if rates else None)
 
 
 class RoadInputComp(om.ExplicitComponent):

@@ -100,7 +100,7 @@ class VehicleRHS:
         z_C, v_C, th, om_ = y[:4]
         z_W, v_W = [y[4], y[6]], [y[5], y[7]]
         n = np.size(t)
-        delta, _ = wheel_road_inputs(self.road, t, self.speed, self.offsets)
+        delta, _ = wheel_road_inputs(self.road, t, self.speed, self.offsets, rates=False)
         out = {'delta_1': delta[0], 'delta_2': delta[1]}
         if self.fidelity == 'low':
             spring, wheel = list(zip(z_W, v_W)), z_W

@@ -46,19 +46,21 @@ def _problem(con=None, nan_above=np.inf, x0=(0.0, 0.0), **opts):
     p.model.add_objective('f')
     if con:
         p.model.add_constraint('g', **con)
-    p.driver = IpoptDriver(**opts)
     p.setup()
     p.set_val('x', x0[0])
     p.set_val('y', x0[1])
+    p.final_setup()
+    pinned = opts.pop('pinned', ())
+    p.ipopt = IpoptDriver(p, **opts)
+    p.run = lambda: p.ipopt.run(pinned=pinned)
     return p
 
 
 def test_unconstrained_minimum():
     """Analytic minimum: x = 20/3, y = -22/3, f = -27.333..."""
     p = _problem()
-    failed = p.run_driver()
-    assert failed.success
-    assert p.driver.status == 0
+    assert p.run()
+    assert p.ipopt.status == 0
     np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [20 / 3, -22 / 3],
                                rtol=1e-6)
     np.testing.assert_allclose(p.get_val('f')[0], -82 / 3, rtol=1e-8)
@@ -69,43 +71,41 @@ def test_two_sided_constraint_and_progress():
     With -15 <= x + y <= 0 the unconstrained optimum (x + y = -2/3) is feasible."""
     seen = []
     p = _problem(con={'equals': 1.0}, progress=seen.append)
-    p.run_driver()
-    assert p.driver.status == 0
+    p.run()
+    assert p.ipopt.status == 0
     np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [7.5, -6.5],
                                rtol=1e-6)
     assert seen and seen[-1].constraint_violation < 1e-8
     assert [s.iteration for s in seen] == list(range(len(seen)))
     p2 = _problem(con={'lower': -15.0, 'upper': 0.0})
-    p2.run_driver()
+    p2.run()
     np.testing.assert_allclose(p2.get_val('x')[0], 20 / 3, rtol=1e-6)
 
 
 def test_iteration_limit_is_a_failure():
     p = _problem(max_iter=1)
-    result = p.run_driver()
-    assert result.success is False
-    assert p.driver.status_message == 'Maximum_Iterations_Exceeded'
+    assert p.run() is False
+    assert p.ipopt.status_message == 'Maximum_Iterations_Exceeded'
 
 
 def test_nan_region_is_avoided_by_backtracking():
     """The model returns NaN for x > 8: IPOPT is told the evaluation failed, cuts the
     step and still converges to the minimum at x = 20/3."""
     p = _problem(nan_above=8.0, x0=(7.9, 0.0))
-    p.run_driver()
-    assert p.driver.status == 0
+    p.run()
+    assert p.ipopt.status == 0
     np.testing.assert_allclose(p.get_val('x')[0], 20 / 3, rtol=1e-6)
 
 
 def test_nan_at_start_is_reported():
     p = _problem(nan_above=-1.0, x0=(0.0, 0.0))
-    result = p.run_driver()
-    assert result.success is False
-    assert 'NaN' in (p.driver.last_error or '')
+    assert p.run() is False
+    assert 'NaN' in (p.ipopt.last_error or '')
 
 
 def test_pinned_variable_is_held():
     p = _problem(pinned=['x'], x0=(2.0, 0.0))
-    p.run_driver()
+    p.run()
     assert p.get_val('x')[0] == 2.0
     np.testing.assert_allclose(p.get_val('y')[0], -5.0, rtol=1e-6)  # df/dy = 2 + 2(y+4) = 0
 

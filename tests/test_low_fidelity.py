@@ -58,40 +58,36 @@ def test_paper_grid_is_inaccurate(cfg, scales):
 
 
 def test_total_sparsity_holds_away_from_start(cfg, scales):
-    """Dense constraint Jacobian at a random state/design point has no nonzero outside the
-    coloring's sparsity (with zero states, dF_S/dk is 0 and a naive detection misses it),
-    and the driver's values (colored forward solves, objective gradient by a reverse
-    solve on the same linearization) equal OpenMDAO's uncolored totals."""
+    """The Jacobian at a random state/design point, computed densely by OpenMDAO alone, has
+    no nonzero outside the structural sparsity (with zero states dF_S/dk is 0: a sparsity
+    detected from values would miss it), and the driver's values (colored forward solves,
+    objective gradient by a reverse solve on the same linearization) equal OpenMDAO's
+    uncolored totals."""
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=6))
-    with VehicleProblem(small, 'low', scales) as vp:
-        vp.set_design(small.design.initial())
-        vp.set_initial_guess(None)
-        vp.solve(optimize=False)  # computes (and caches) the coloring at this zero-ish point
+    with VehicleProblem(small, 'low', scales, use_cache=False) as vp:
         drv = vp.driver
+        drv.prepare()
+        lay = drv.layout()
         coloring = drv.total_coloring()
         p = vp.problem
         rng = np.random.default_rng(1)
-        for name in p.driver._designvars:
-            val = p.get_val(name)
-            p.set_val(name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01) * 0.5)
+        for v in lay.design_vars:
+            val = p.get_val(v.name)
+            p.set_val(v.name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01)
+                      * 0.5)
         p.run_model()
-        g, jac = drv._totals()  # jac: values at the coloring's (rows, cols), IPOPT's order
-        # recompute densely, uncolored, by OpenMDAO alone
-        with VehicleProblem(small, 'low', scales, use_cache=False) as dense:
-            for name in p.driver._designvars:
-                dense.problem.set_val(name, p.get_val(name))
-            dense.problem.run_model()
-            Jd = dense.problem.compute_totals(of=dense.driver._get_ordered_nl_responses(),
-                                              wrt=list(dense.driver._designvars),
-                                              return_format='array', coloring_info=False)
-    np.testing.assert_allclose(g, Jd[0], rtol=1e-9, atol=1e-12)
+        x = drv.scaled_design()
+        grad, jac = drv.gradient(x), drv.jacobian(x)  # driver-scaled, at IPOPT's structure
+        Jd = p.compute_totals(of=[lay.objective.name] + [c.name for c in lay.constraints],
+                              wrt=[v.name for v in lay.design_vars], return_format='array',
+                              coloring_info=False, driver_scaling=True)
+    np.testing.assert_allclose(grad, Jd[0], rtol=1e-9, atol=1e-12)
     Jd = Jd[1:]  # the constraints
     pattern = np.zeros(Jd.shape, dtype=bool)
-    pattern[coloring._nzrows, coloring._nzcols] = True
+    pattern[coloring.rows, coloring.cols] = True
     outside = (np.abs(Jd) > 1e-12 * np.max(np.abs(Jd))) & ~pattern
     assert not np.any(outside), f'{outside.sum()} true nonzeros outside the sparsity'
-    np.testing.assert_allclose(jac, Jd[coloring._nzrows, coloring._nzcols], rtol=1e-9,
-                               atol=1e-12)
+    np.testing.assert_allclose(jac, Jd[coloring.rows, coloring.cols], rtol=1e-9, atol=1e-12)
 
 
 def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_optimum):
@@ -152,21 +148,24 @@ def test_zero_start_with_fresh_coloring_reaches_same_optimum(cfg, scales, low_op
 
 
 def test_driver_sparse_jacobian_equals_openmdao_totals(cfg, scales):
-    """IPOPT's Jacobian values (vectorized colored scatter, driver scaling applied to the
-    nonzeros) equal OpenMDAO's own driver-scaled total Jacobian at those entries."""
+    """At a converged optimum, IPOPT's Jacobian values (colored forward solves gathered into
+    the nonzeros, driver scaling applied there) equal OpenMDAO's own driver-scaled total
+    Jacobian at those entries."""
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=6))
     with VehicleProblem(small, 'low', scales) as vp:
         vp.set_design({'k_S1': 21000.0, 'k_S2': 33000.0, 'c_S1': 1800.0, 'c_S2': 4100.0})
         vp.set_initial_guess(simulate(small, 'low', vp.design()))
         res = vp.solve(optimize=True)
         drv = vp.driver
-        x = drv._x()
-        drv._x_run = drv._x_jac = None
-        drv._jacobian_values(x)
-        drv._total_jac = None
-        J = drv._compute_totals(of=drv._of, wrt=drv._wrt, return_format='array',
-                                driver_scaling=True)
+        drv.prepare()
+        lay = drv.layout()
+        x = drv.scaled_design()
+        grad, jac = drv.gradient(x), drv.jacobian(x)
+        J = vp.problem.compute_totals(
+            of=[lay.objective.name] + [c.name for c in lay.constraints],
+            wrt=[v.name for v in lay.design_vars], return_format='array',
+            coloring_info=False, driver_scaling=True)
+        rows, cols = drv.jacobianstructure()
     assert res.success
-    np.testing.assert_allclose(drv._jac, J[drv._n_obj + drv._jrows, drv._jcols],
-                               rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(drv._grad, J[0], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(jac, J[1 + rows, cols], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(grad, J[0], rtol=1e-12, atol=1e-14)

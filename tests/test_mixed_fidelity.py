@@ -96,8 +96,9 @@ def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_opti
 
 def _reduced_gradient(vp: VehicleProblem) -> np.ndarray:
     """df/dx = f_x - f_s (c_s)^-1 c_x from the NLP's total Jacobian at a converged point."""
-    drv = vp.driver
-    of, wrt = drv._get_ordered_nl_responses(), list(drv._designvars)
+    lay = vp.driver.layout()
+    of = [lay.objective.name] + [c.name for c in lay.constraints]
+    wrt = [v.name for v in lay.design_vars]
     J = vp.problem.compute_totals(of=of, wrt=wrt, return_format='array',
                                   driver_scaling=False)
     cols, start = {}, 0
@@ -159,7 +160,7 @@ def test_check_totals_of_the_nlp(cfg, scales):
         p = vp.problem
         p.run_model()
         wrt = [f'phase.parameters:{n}' for n in DESIGN_NAMES]
-        of = ['objective.f'] + [n for n in p.driver._cons]
+        of = ['objective.f'] + [c.name for c in vp.driver.layout().constraints]
         data = p.check_totals(of=of, wrt=wrt, method='fd', form='central', step=1e-3,
                               step_calc='rel', out_stream=None, driver_scaling=False)
     worst = 0.0

@@ -10,16 +10,10 @@ Reference Jacobian: an independent central difference of the module's ``kinemati
 1e-2 N. Its error: truncation h²|f'''|/6 plus noise ε_f/h with ε_f ≈ Newton tolerance
 (1e-13 m) and round-off, together ≲ 1e-7 of each block's largest entry.
 
-Expected error of the component's forward FD with the step it declares (one absolute
-step of 1e-6 in the SI units of every input — OpenMDAO's colored FD applies the first
-input's step to every column, so per-input relative steps are not possible): truncation
-h|f''|/2 plus noise ε_f/h, measured at about 2e-5 of each block's largest entry. The
-check allows 1e-4, with an absolute floor of 1e-6 of the output's largest partial for
-blocks that are zero in exact arithmetic (e.g. ∂q̇_U/∂z_W).
-
-History: with a relative step (``rel_avg``) the dynamics partials w.r.t. z_W and v_W
-were off by up to 2.3 % and 0.2 %, because the wheel travel got the tyre force's step
-(1e-6·mean|F_T| ≈ 1.5e-3 m); the test of the steps actually used caught it.
+Expected error of the component's forward FD with its absolute step of 1e-6 in the SI
+units of every input: truncation h|f''|/2 plus noise ε_f/h, about 2e-5 of each block's
+largest entry. The check allows 1e-4, with an absolute floor of 1e-6 of the output's
+largest partial for blocks that are zero in exact arithmetic (e.g. ∂q̇_U/∂z_W).
 """
 from __future__ import annotations
 
@@ -27,6 +21,7 @@ import numpy as np
 import openmdao.api as om
 import pytest
 
+from suspopt.driver.structure import declared_subjacs
 from suspopt.multibody.components import SuspensionDynamicsComp, SuspensionKinematicsComp
 from suspopt.multibody.suspension import SuspensionModule
 
@@ -122,48 +117,34 @@ def test_fd_partials_match_independent_central_differences(cases, kind, nn):
                           + '\n  '.join(failures))
 
 
+@pytest.mark.parametrize('form', ['forward', 'central'])
 @pytest.mark.parametrize('kind', ['kin', 'dyn'])
-def test_fd_steps_are_the_declared_per_variable_steps(module, kind):
-    """Each input is perturbed by the step declared for its partials (``declare_partials``
-    metadata: step, step_calc, minimum_step).
-
-    OpenMDAO's colored FD (approximation_scheme.py, ``_init_colored_approximations``:
-    "data is the same for all colored approxs so we only need the first") computes ONE
-    step from the first variable and applies it to all colored columns; with a relative
-    step the wheel travel z_W [m] got the tyre force's step (1e-6·mean|F_T| ≈ 1.5e-3 m;
-    7.6e-3 m in a vehicle-like assembly). This guards the absolute step that fixes it.
-    """
+def test_fd_steps_are_the_configured_absolute_step(module, kind, form):
+    """Every black-box call of a Jacobian perturbs exactly one input, at every node, by
+    the configured absolute step (+h forward; ±h central) and leaves the others alone."""
     Comp, ins, outs = KIN if kind == 'kin' else DYN
-    nn = 10
+    nn, h = 10, 3e-6
     x = inputs(nn)
-    p, comp = make_problem(Comp, nn, module, x, ins)
-    base = {k: p.get_val(k).copy() for k in ins}
-    seen: dict[str, set] = {k: set() for k in ins}
-    compute = comp.compute
+    p, comp = make_problem(Comp, nn, module, x, ins, fd_form=form, fd_step=h)
+    seen = []
+    evaluate = comp.evaluate
 
-    def recording(inp, outp):
-        for k in ins:
-            d = inp[k] - base[k]
-            for v in d[d != 0]:
-                seen[k].add(float(v))
-        return compute(inp, outp)
+    def recording(values):
+        seen.append({k: values[k] - x[k] for k in ins})
+        return evaluate(values)
 
-    comp.compute = recording
+    comp.evaluate = recording
     p.compute_totals(of=outs, wrt=ins)
-    wrong = []
-    for k in ins:
-        meta = comp._subjacs_info['c.' + outs[0], 'c.' + k]
-        expected = meta['step']
-        if meta['step_calc'] in ('rel', 'rel_avg'):
-            expected = max(expected * np.mean(np.abs(x[k])), meta['minimum_step'])
-        elif meta['step_calc'] != 'abs':
-            pytest.skip(f"step_calc {meta['step_calc']!r} not modelled by this test")
-        assert seen[k], f'{k} was never perturbed'
-        used = max(seen[k], key=abs)
-        if not np.isclose(abs(used), expected, rtol=1e-6):
-            wrong.append(f"{k}: step {abs(used):.3e}, declared ({meta['step']:g}, "
-                         f"{meta['step_calc']}) -> {expected:.3e}")
-    assert not wrong, 'FD steps differ from the declared ones:\n  ' + '\n  '.join(wrong)
+    moved = []
+    for d in seen:
+        changed = [k for k in ins if np.any(d[k] != 0.0)]
+        assert len(changed) <= 1, changed
+        if changed:
+            k = changed[0]
+            np.testing.assert_allclose(d[k], np.sign(d[k][0]) * h, rtol=1e-6, atol=0.0)
+            moved.append((k, np.sign(d[k][0])))
+    expected = [(k, s) for k in ins for s in ((1.0, -1.0) if form == 'central' else (1.0,))]
+    assert sorted(moved) == sorted(expected)
 
 
 # ------------------------------------------------------------------------ (b) call counts
@@ -176,14 +157,14 @@ def test_solver_calls_per_jacobian_do_not_grow_with_nodes(kind, form, factor):
         mod = SuspensionModule('double_wishbone')
         p, comp = make_problem(Comp, nn, mod, inputs(nn), ins, fd_form=form)
         n_compute = [0]
-        compute = comp.compute
+        evaluate = comp.evaluate
 
-        def counting(inp, outp):
+        def counting(values):
             n_compute[0] += 1
-            return compute(inp, outp)
+            return evaluate(values)
 
-        comp.compute = counting
-        for _ in range(2):            # the first Jacobian also sets up the coloring
+        comp.evaluate = counting
+        for _ in range(2):
             c0 = dict(mod.solver.calls)
             n_compute[0] = 0
             p.compute_totals(of=outs, wrt=ins)
@@ -243,35 +224,12 @@ def test_declared_sparsity_is_the_true_one(cases, module, kind, nn):
         assert any(np.any(Jref[o][w][mask] != 0.0) for w in ins), o
     # the declared pattern (rows/cols of declare_partials) is the full node-diagonal block
     p, comp = make_problem(Comp, nn, module, x, ins)
-    p.compute_totals(of=outs, wrt=ins)
+    declared = {(sj.of.split('.')[-1], sj.wrt.split('.')[-1]): sj
+                for sj in declared_subjacs(comp)}
     for o in outs:
         width = Jref[o][ins[0]].shape[0] // nn
         for w in ins:
-            meta = comp._subjacs_info['c.' + o, 'c.' + w]
-            declared = np.zeros((nn * width, nn), dtype=bool)
-            declared[meta['rows'], meta['cols']] = True
-            assert np.array_equal(declared, block_mask(nn, width)), (o, w)
-    # and the coloring built from it needs one FD solve per input variable
-    assert comp._coloring_info.coloring.total_solves() == len(ins)
-
-
-@pytest.mark.parametrize('kind', ['kin', 'dyn'])
-def test_vectorized_fd_scatter_equals_openmdao_per_column_scatter(module, kind, monkeypatch):
-    """The black boxes' FD scheme only changes how a colored result is written into the
-    sub-Jacobians; OpenMDAO's own FiniteDifference gives the identical Jacobian."""
-    from openmdao.approximation_schemes.finite_difference import FiniteDifference
-
-    from suspopt.multibody import components
-
-    Comp, ins, outs = KIN if kind == 'kin' else DYN
-    nn = 12
-    x = inputs(nn, seed=3)
-    p, _ = make_problem(Comp, nn, module, x, ins)
-    J_fast = p.compute_totals(of=outs, wrt=ins, return_format='flat_dict')
-    monkeypatch.setattr(components, '_NodewiseFiniteDifference', FiniteDifference)
-    p, comp = make_problem(Comp, nn, module, x, ins)
-    assert type(comp._get_approx_scheme('fd')) is FiniteDifference
-    J_om = p.compute_totals(of=outs, wrt=ins, return_format='flat_dict')
-    assert sum(np.count_nonzero(v) for v in J_om.values()) >= nn * len(outs)
-    for key, val in J_om.items():
-        np.testing.assert_allclose(J_fast[key], val, rtol=1e-13, atol=0.0, err_msg=str(key))
+            sj = declared[o, w]
+            pattern = np.zeros((nn * width, nn), dtype=bool)
+            pattern[sj.rows, sj.cols] = True
+            assert np.array_equal(pattern, block_mask(nn, width)), (o, w)

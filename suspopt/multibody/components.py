@@ -1,11 +1,14 @@
 """The multibody suspension module as black-box OpenMDAO components (paper §3.3-3.4).
 
-The optimizer treats the module as an existing solver without adjoints: these
-components declare NO analytic partials. Their partials come from OpenMDAO's finite
-differences with partial coloring. Because node ``i``'s outputs depend on node ``i``'s
-inputs only, the coloring is known in advance and is declared (no FD probing to detect
-it), so a full FD Jacobian costs one batched solver call per input variable, whatever
-the number of nodes.
+The optimizer treats the module as an existing solver without adjoints: its partials
+come from finite differences only, never from hand-written or automatic derivatives.
+Because node ``i``'s outputs depend on node ``i``'s inputs only, the differences are
+taken inside ``compute_partials`` by perturbing one input at *all* nodes at once (the
+node-wise coloring is known in advance): a full Jacobian costs one batched solver call
+per input variable (two with central differences), whatever the number of nodes. The
+partials are declared with their node-wise ``rows``/``cols``, so OpenMDAO and the total
+sparsity (:mod:`suspopt.driver.sparsity`) see the exact pattern. Only OpenMDAO's public
+component API is used.
 
 The module is queried in two steps, as one would query a commercial multibody code:
 
@@ -22,86 +25,19 @@ module.
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import openmdao.api as om
-from openmdao.approximation_schemes.finite_difference import FiniteDifference
-from openmdao.jacobians.dictionary_jacobian import _CheckingJacobian
-from openmdao.jacobians.subjac import OMCOOSubjac
-from openmdao.utils.coloring import Coloring, _ColSparsityJac, _tol_sweep
-from scipy.sparse import coo_matrix
 
 from suspopt.errors import MultibodyError
 from suspopt.multibody.suspension import SuspensionModule
 
 
-class _NodewiseFiniteDifference(FiniteDifference):
-    """OpenMDAO's finite differences, unchanged (same perturbations, same runs of the black
-    box), except how a colored run's result reaches the sparse sub-Jacobians: OpenMDAO
-    sets it column by column, each column searching the whole sub-Jacobian (quadratic in
-    the number of nodes: ~1.4 s per mixed-fidelity solve at 400 nodes); with the
-    node-wise coloring one color is all nodes of one input, so the result is the
-    sub-Jacobians' data in one gather."""
-
-    _per_color = False
-
-    def compute_approximations(self, system, jac) -> None:
-        if isinstance(jac, _CheckingJacobian) or not self._wrt_meta:
-            return super().compute_approximations(system, jac)
-        if jac._col_mapper is None:
-            jac._setup_index_maps(system)
-        self._per_color = True
-        try:
-            for item in self.compute_approx_col_iter(
-                    system, under_cs=system._outputs._under_complex_step):
-                if isinstance(item[1], dict):
-                    self._set_color(system, jac, *item)
-                else:
-                    jac.set_col(system, *item)
-        finally:
-            self._per_color = False
-
-    def _colored_column_iter(self, system, colored_approx_groups):
-        if not self._per_color or system._num_par_fd > 1:
-            yield from super()._colored_column_iter(system, colored_approx_groups)
-            return
-        results_array = system._residuals.asarray(copy=True)
-        for data, jcols, vec_ind_list, nzrows, seed_vars in colored_approx_groups:
-            with system._relevance.seeds_active(fwd_seeds=seed_vars):
-                result = self._run_point(system, vec_ind_list, data, results_array, False)
-            result = self._transform_result(result) * self._get_multiplier(data)
-            yield jcols, {'result': result.copy(), 'nzrows': nzrows}
-
-    @staticmethod
-    def _set_color(system, jac, jcols, color) -> None:
-        result, mapper = color['result'], jac._col_mapper
-        wrt, first = mapper.index2key_rel(jcols[0])
-        last_wrt, last = mapper.index2key_rel(jcols[-1])
-        contiguous = last_wrt == wrt and first == 0 and last == len(jcols) - 1
-        for of, start, end, *_ in system._get_jac_ofs():
-            sub = jac._subjacs.get((of, wrt))
-            if sub is None:
-                continue
-            if (contiguous and isinstance(sub, OMCOOSubjac)
-                    and sub.info['shape'][1] == len(jcols)):
-                sub.info['val'][:] = result[start + sub.rows]
-            else:  # general case: OpenMDAO's own per-column assignment
-                for jcol, rows in zip(jcols, color['nzrows']):
-                    col = np.zeros(len(result))
-                    col[rows] = result[rows]
-                    jac.set_col(system, jcol, col)
-                return
-
-
 class NodewiseBlackBox(om.ExplicitComponent):
-    """An explicit component whose partials come from finite differences only and whose
-    outputs at each node depend only on the inputs at the same node.
+    """An explicit component whose outputs at each node depend only on the inputs at the
+    same node, differentiated by finite differences only.
 
-    Subclasses call :meth:`declare_nodewise_fd` in ``setup``; the FD partial coloring is
-    then built from that declared structure instead of being detected by perturbation
-    (OpenMDAO's default probes several full FD Jacobians, and at an all-zero start it can
-    miss real nonzeros).
+    Subclasses call :meth:`declare_nodewise_fd` in ``setup`` and implement
+    :meth:`evaluate` (the black-box call: input arrays in, output arrays out).
     """
 
     def initialize(self) -> None:
@@ -112,100 +48,57 @@ class NodewiseBlackBox(om.ExplicitComponent):
         self.options.declare('fd_step', default=1e-6, types=float,
                              desc='absolute FD step, in the SI units of every input')
 
-    def _get_approx_scheme(self, method):
-        if method == 'fd' and 'fd' not in self._approx_schemes:
-            self._approx_schemes['fd'] = _NodewiseFiniteDifference()
-        return super()._get_approx_scheme(method)
-
-    def _get_jacobian(self, use_relevance: bool = True):
-        """Keep this component's Jacobian across relevance changes.
-
-        OpenMDAO rebuilds a component's Jacobian whenever the relevance graph changes, and
-        the driver's linearization and its two total-derivative solves per iterate each
-        have their own graph; for a finite-differenced component the rebuild also
-        re-initializes the colored FD (together ~0.1 s per mixed-fidelity solve). These
-        partials do not depend on relevance: every FD run perturbs all nodes of an input
-        and yields every output."""
-        jac = self._jacobian
-        if jac is not None and not isinstance(jac, _ColSparsityJac):
-            self._relevance_changed()  # keep OpenMDAO's bookkeeping current
-            return jac
-        return super()._get_jacobian(use_relevance)
-
     def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str]) -> None:
-        """FD partials of each output (with ``outputs[name]`` values per node) w.r.t. each
-        node-wise scalar input, with per-node block sparsity and a fixed coloring.
+        """Partials of each output (``outputs[name]`` values per node) w.r.t. each node-wise
+        input: one block of ``outputs[name]`` rows per node, in that node's column.
 
-        The step is absolute and the same for every input: OpenMDAO's colored FD takes
-        the step of the first input for all columns, so a relative step sized for the
-        forces (~1e-3 N) would also be applied to the wheel travel (in m).
-        """
+        The step is absolute and the same for every input (in its SI units)."""
         nn = self.options['num_nodes']
-        form, step = self.options['fd_form'], self.options['fd_step']
-        self._nodewise = {}
-        self.declare_coloring(wrt=inputs, method='fd', form=form, step=step,
-                              show_summary=False)
+        self._fd_outputs, self._fd_inputs = dict(outputs), list(inputs)
         for of, width in outputs.items():
             rows = np.arange(nn * width)
             cols = np.repeat(np.arange(nn), width)
             for wrt in inputs:
-                self.declare_partials(of, wrt, rows=rows, cols=cols, method='fd', form=form,
-                                      step=step, step_calc='abs')
-                self._nodewise[of, wrt] = (rows, cols)
+                self.declare_partials(of, wrt, rows=rows, cols=cols)
 
-    def compute_fd_sparsity(self, method: str = 'fd', num_full_jacs: int = 2,
-                            perturb_size: float = 1e-9):
-        """The declared node-wise sparsity; no FD evaluation is spent on detecting it."""
-        info = self._coloring_info
-        prefix = self.pathname + '.' if self.pathname else ''
-        ofs = [(name[len(prefix):], start, end) for name, start, end, *_ in self._get_jac_ofs()]
-        wrts = self._get_jac_wrts(info.wrt_matches)
-        rows, cols = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
-        for wrt_abs, wstart, *_ in wrts:
-            for of, ostart, _ in ofs:
-                pattern = self._nodewise.get((of, wrt_abs[len(prefix):]))
-                if pattern is not None:
-                    rows.append(ostart + pattern[0])
-                    cols.append(wstart + pattern[1])
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
-        shape = (ofs[-1][2] if ofs else 0, wrts[-1][2] if wrts else 0)
-        # the metadata OpenMDAO's own detection reports, for a pattern of exact nonzeros
-        sp_info = _tol_sweep(np.ones(rows.size), info.tol, info.orders)
-        sp_info.update(J_shape=shape, nz_entries=rows.size)
-        return coo_matrix((np.ones(rows.size, dtype=bool), (rows, cols)), shape=shape), sp_info
+    def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The black-box call: node-wise inputs by name → outputs by name."""
+        raise NotImplementedError
 
-    def _compute_coloring(self, recurse=False, **overrides):
-        """The FD partial coloring, built from the known structure: one color per input
-        variable (all its nodes perturbed at once). OpenMDAO's general graph coloring of
-        the same sparsity takes ~0.5 s per component at 400 nodes, on every new problem."""
-        info = self._coloring_info
-        info.update(overrides)
-        if info['method'] is None and self._approx_schemes:
-            info['method'] = list(self._approx_schemes)[0]
-        if info.coloring is None and info.static is None:
-            info.dynamic = True
-        t0 = time.perf_counter()
-        sparsity, sp_info = self.compute_sparsity()
-        coo = sparsity.tocoo()
-        order = np.lexsort((coo.row, coo.col))
-        rows, cols = coo.row[order], coo.col[order]
-        ncols = sparsity.shape[1]
-        bounds = np.searchsorted(cols, np.arange(ncols + 1))
-        groups = [list(range(start, end)) for _, start, end, *_ in
-                  self._get_jac_wrts(info.wrt_matches)]
-        for group in groups:  # a color's columns must not share a row
-            grows = rows[bounds[group[0]]:bounds[group[-1] + 1]] if group else rows[:0]
-            if np.unique(grows).size != grows.size:
-                raise RuntimeError(f'{self.msginfo}: outputs are not node-wise in the inputs')
-        coloring = Coloring(sparsity=sparsity)
-        row_list = rows.tolist()
-        coloring._fwd = (groups, [row_list[a:b] or None
-                                  for a, b in zip(bounds[:-1], bounds[1:])])
-        coloring._meta['coloring_time'] = time.perf_counter() - t0
-        coloring._resolver = self._resolver
-        if not self._finalize_coloring(coloring, info, sp_info, time.perf_counter() - t0):
-            return [None]
-        return [coloring]
+    def _call(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        try:
+            return self.evaluate(values)
+        except MultibodyError as err:
+            raise om.AnalysisError(f'{self.pathname}: {err}') from err
+
+    def _key(self, values) -> bytes:
+        return b''.join(np.ascontiguousarray(values[k]).tobytes() for k in self._fd_inputs)
+
+    def compute(self, inputs, outputs) -> None:
+        values = {k: np.array(inputs[k]) for k in self._fd_inputs}
+        out = self._call(values)
+        self._last = (self._key(values), out)  # the base point of the next differences
+        for name in self._fd_outputs:
+            outputs[name] = out[name]
+
+    def compute_partials(self, inputs, partials) -> None:
+        """Forward (or central) differences, one input at all nodes per black-box call."""
+        base_in = {k: np.array(inputs[k]) for k in self._fd_inputs}
+        h, central = self.options['fd_step'], self.options['fd_form'] == 'central'
+        base = None
+        if not central:
+            last = getattr(self, '_last', None)
+            base = last[1] if last and last[0] == self._key(base_in) else self._call(base_in)
+        for wrt in self._fd_inputs:
+            plus = dict(base_in, **{wrt: base_in[wrt] + h})
+            up = self._call(plus)
+            if central:
+                down = self._call(dict(base_in, **{wrt: base_in[wrt] - h}))
+                for of in self._fd_outputs:
+                    partials[of, wrt] = ((up[of] - down[of]) / (2.0 * h)).ravel()
+            else:
+                for of in self._fd_outputs:
+                    partials[of, wrt] = ((up[of] - base[of]) / h).ravel()
 
 
 class SuspensionKinematicsComp(NodewiseBlackBox):
@@ -226,15 +119,9 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
         self.add_output('qd_W', shape=(nn,), units='m/s', desc='wheel vertical velocity')
         self.declare_nodewise_fd({'q_U': 1, 'qd_U': 1, 'q_W': 1, 'qd_W': 1}, ['z_W', 'v_W'])
 
-    def compute(self, inputs, outputs) -> None:
-        try:
-            kin = self.options['module'].kinematics(inputs['z_W'], inputs['v_W'])
-        except MultibodyError as err:
-            raise om.AnalysisError(f'{self.pathname}: {err}') from err
-        outputs['q_U'] = kin.q_U
-        outputs['qd_U'] = kin.qd_U
-        outputs['q_W'] = kin.q_W
-        outputs['qd_W'] = kin.qd_W
+    def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        kin = self.options['module'].kinematics(values['z_W'], values['v_W'])
+        return {'q_U': kin.q_U, 'qd_U': kin.qd_U, 'q_W': kin.q_W, 'qd_W': kin.qd_W}
 
 
 class SuspensionDynamicsComp(NodewiseBlackBox):
@@ -259,11 +146,8 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.declare_nodewise_fd({'zdd_W': 1, 'reactions': 2 * nj},
                                  ['z_W', 'v_W', 'F_S', 'F_T'])
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         module: SuspensionModule = self.options['module']
-        try:
-            kin = module.kinematics(inputs['z_W'], inputs['v_W'])
-            outputs['zdd_W'], outputs['reactions'] = module.dynamics(
-                kin.state, inputs['F_S'], inputs['F_T'])
-        except MultibodyError as err:
-            raise om.AnalysisError(f'{self.pathname}: {err}') from err
+        kin = module.kinematics(values['z_W'], values['v_W'])
+        zdd, reactions = module.dynamics(kin.state, values['F_S'], values['F_T'])
+        return {'zdd_W': zdd, 'reactions': reactions}

@@ -1,0 +1,421 @@
+"""IPOPT on an OpenMDAO problem, through cyipopt and OpenMDAO's public API (paper §3.6).
+
+OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available here, so
+this small driver wraps ``cyipopt`` directly. It is not an OpenMDAO ``Driver`` subclass:
+it reads the NLP the model declares (design variables, constraints, objective, their
+``ref``/``ref0`` scaling) from public metadata and drives the model by public calls
+(``run_solve_nonlinear``, and :mod:`suspopt.driver.totals` for the derivatives):
+
+* design variables, bounds and constraints are passed to IPOPT in driver scaling;
+* the constraint Jacobian is given to IPOPT as a sparse matrix whose structure is the
+  exact sparsity computed from the model's declared partials
+  (:mod:`suspopt.driver.sparsity`); its values come from one forward solve per color,
+  gathered straight into IPOPT's nonzeros (no dense (m, n) array), driver-scaled there;
+* the objective gradient comes from one reverse solve on the same linearization;
+* the Hessian is approximated by IPOPT (limited-memory BFGS);
+* a model evaluation that fails (``AnalysisError``, non-finite values) is reported to IPOPT
+  as an evaluation error, so IPOPT backtracks instead of aborting;
+* every accepted iteration is reported to an optional ``progress`` callable
+  (iteration, objective, constraint violation, elapsed time) and kept in ``history``;
+* Ctrl-C (SIGINT) or SIGTERM stops IPOPT at the end of the current iteration (a second
+  one interrupts at once), keeping what was computed; :attr:`IpoptDriver.interrupted`
+  tells the caller, which decides what to keep and then stops too;
+* the exit status is reported truthfully: :meth:`IpoptDriver.run` returns True (success)
+  only if IPOPT reports ``Solve_Succeeded`` (0) or ``Solved_To_Acceptable_Level`` (1).
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import cyipopt
+import numpy as np
+import openmdao.api as om
+
+from suspopt.driver.sparsity import Coloring, compute_coloring
+from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
+
+#: IPOPT's return statuses (IpReturnCodes.h).
+IPOPT_STATUS = {
+    0: 'Solve_Succeeded', 1: 'Solved_To_Acceptable_Level', 2: 'Infeasible_Problem_Detected',
+    3: 'Search_Direction_Becomes_Too_Small', 4: 'Diverging_Iterates',
+    5: 'User_Requested_Stop', 6: 'Feasible_Point_Found',
+    -1: 'Maximum_Iterations_Exceeded', -2: 'Restoration_Failed',
+    -3: 'Error_In_Step_Computation', -4: 'Maximum_CpuTime_Exceeded',
+    -5: 'Maximum_WallTime_Exceeded', -10: 'Not_Enough_Degrees_Of_Freedom',
+    -11: 'Invalid_Problem_Definition', -12: 'Invalid_Option',
+    -13: 'Invalid_Number_Detected', -100: 'Unrecoverable_Exception',
+    -101: 'NonIpopt_Exception_Thrown', -102: 'Insufficient_Memory', -199: 'Internal_Error',
+}
+_INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means "none"
+
+
+class _OptionProbe:
+    """The smallest problem object cyipopt accepts, to try options on."""
+
+    def objective(self, x):
+        return 0.0
+
+    def gradient(self, x):
+        return np.zeros(1)
+
+
+@contextmanager
+def _c_stdout_to(fh):
+    """Send what C code prints on the process's standard output to ``fh``."""
+    sys.stdout.flush()
+    try:
+        libc = ctypes.CDLL(None)
+    except OSError:  # no C library to flush through: IPOPT's words go where they go
+        yield
+        return
+    saved = os.dup(1)
+    os.dup2(fh.fileno(), 1)
+    try:
+        yield
+    finally:
+        libc.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _ipopt_reason(text: str) -> str:
+    """IPOPT's own explanation of a rejected option, in one line."""
+    lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
+    if not lines:
+        return 'rejected by IPOPT'
+    reason = lines[0].replace(' Please check the list of available options.', '') \
+        .replace(' Check the option documentation.', '') \
+        .replace(' Please check the documentation for options.', '')
+    ranges = [ln for ln in lines if '<=' in ln or '<' in ln and '(' in ln]
+    if 'Valid Settings:' in lines:
+        i = lines.index('Valid Settings:')
+        valid = [ln.split()[0] for ln in lines[i + 1:] if not ln.startswith('Default')]
+        reason += f' (valid: {", ".join(valid)})'
+    elif ranges:
+        reason += f' (range: {ranges[0]})'
+    return reason
+
+
+def _add_option(nlp: cyipopt.Problem, name: str, value: Any) -> None:
+    """``nlp.add_option``, taking an integer for a real-valued option too (TOML writes
+    ``acceptable_tol = 1`` as an integer; IPOPT would reject it by type)."""
+    try:
+        nlp.add_option(name, value)
+    except TypeError:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise
+        nlp.add_option(name, float(value))
+
+
+def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
+    """One ``name: reason`` line per option that IPOPT itself rejects (unknown name, wrong
+    type, value out of range), found by setting each on a throw-away IPOPT problem."""
+    if not options:
+        return []
+    problems = []
+    nlp = cyipopt.Problem(n=1, m=0, problem_obj=_OptionProbe(), lb=[0.0], ub=[1.0])
+    try:
+        for name, value in options.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+                problems.append(f'{name}: must be a number or a string, got {value!r}')
+                continue
+            with tempfile.TemporaryFile(mode='w+') as out:
+                try:
+                    with _c_stdout_to(out):
+                        _add_option(nlp, name, value)
+                except TypeError:
+                    out.seek(0)
+                    problems.append(f'{name}: IPOPT rejects {value!r}: '
+                                    f'{_ipopt_reason(out.read())}')
+    finally:
+        nlp.close()
+    return problems
+
+
+@dataclass
+class IterationInfo:
+    """One accepted IPOPT iteration, as reported to the progress callback."""
+
+    iteration: int
+    objective: float
+    constraint_violation: float
+    dual_infeasibility: float
+    elapsed_s: float
+    design: dict[str, float] = field(default_factory=dict)
+
+
+class IpoptDriver:
+    """Solve the NLP declared on ``problem``'s model with IPOPT.
+
+    ``coloring``: the constraint Jacobian's sparsity and coloring in this layout
+    (:func:`~suspopt.driver.sparsity.compute_coloring`), e.g. from a cache; computed on the
+    first :meth:`run` if not given. ``progress`` receives an :class:`IterationInfo` after
+    every iteration; ``watch`` names design variables whose physical values it carries.
+    ``opt_settings`` are further raw IPOPT options.
+    """
+
+    def __init__(self, problem: om.Problem, *, max_iter: int = 3000, tol: float = 1e-8,
+                 print_level: int = 0, hessian_approximation: str = 'limited-memory',
+                 progress: Callable[[IterationInfo], None] | None = None,
+                 watch: tuple[str, ...] | list[str] = (), coloring: Coloring | None = None,
+                 opt_settings: dict[str, Any] | None = None):
+        self.problem = problem
+        self.options = {'max_iter': max_iter, 'tol': tol, 'print_level': print_level,
+                        'hessian_approximation': hessian_approximation}
+        self.progress = progress
+        self.watch = list(watch)
+        self.coloring = coloring
+        self.opt_settings: dict[str, Any] = dict(opt_settings or {})
+        self.history: list[IterationInfo] = []
+        self.status: int | None = None
+        self.status_message = ''
+        self.n_function_evals = self.n_gradient_evals = 0
+        self.last_error: str | None = None
+        self.interrupted = False
+        self._layout: Layout | None = None
+        self._totals: ColoredTotals | None = None
+
+    # ------------------------------------------------------------------ layout
+    def layout(self) -> Layout:
+        """The NLP as declared on the model (read once)."""
+        if self._layout is None:
+            self._layout = lay = nlp_layout(self.problem)
+            meta = [lay.dv_meta[v.name] for v in lay.design_vars]
+            self._dv_scaler = np.concatenate([_vec(m.get('total_scaler'), 1.0, v.size)
+                                              for m, v in zip(meta, lay.design_vars)])
+            self._dv_adder = np.concatenate([_vec(m.get('total_adder'), 0.0, v.size)
+                                             for m, v in zip(meta, lay.design_vars)])
+            cmeta = [lay.con_meta[v.name] for v in lay.constraints]
+            self._con_scaler = (np.concatenate([_vec(m.get('total_scaler'), 1.0, v.size)
+                                                for m, v in zip(cmeta, lay.constraints)])
+                                if cmeta else np.zeros(0))
+            self._con_adder = (np.concatenate([_vec(m.get('total_adder'), 0.0, v.size)
+                                               for m, v in zip(cmeta, lay.constraints)])
+                               if cmeta else np.zeros(0))
+            self._obj_scaler = float(_vec(lay.obj_meta.get('total_scaler'), 1.0, 1)[0])
+            self._obj_adder = float(_vec(lay.obj_meta.get('total_adder'), 0.0, 1)[0])
+            lo = np.concatenate([_vec(m.get('lower'), -np.inf, v.size)
+                                 for m, v in zip(meta, lay.design_vars)])
+            up = np.concatenate([_vec(m.get('upper'), np.inf, v.size)
+                                 for m, v in zip(meta, lay.design_vars)])
+            self._lb, self._ub = self._scaled_x(lo), self._scaled_x(up)
+            cl, cu = [], []
+            for m, v in zip(cmeta, lay.constraints):
+                if m.get('equals') is not None:
+                    cl.append(_vec(m['equals'], 0.0, v.size))
+                    cu.append(_vec(m['equals'], 0.0, v.size))
+                else:
+                    cl.append(_vec(m.get('lower'), -np.inf, v.size))
+                    cu.append(_vec(m.get('upper'), np.inf, v.size))
+            self._cl = self._scaled_con(np.concatenate(cl)) if cl else np.zeros(0)
+            self._cu = self._scaled_con(np.concatenate(cu)) if cu else np.zeros(0)
+            _, outputs, _ = self.problem.model.get_nonlinear_vectors()
+            self._outputs = outputs
+            self._dv_pos = flat_positions(outputs, lay.design_vars)
+            self._con_pos = flat_positions(outputs, lay.constraints)
+            self._obj_pos = flat_positions(outputs, [lay.objective])
+            starts = np.cumsum([0] + [v.size for v in lay.design_vars])
+            self._dv_slices = {v.name: slice(a, b)
+                               for v, a, b in zip(lay.design_vars, starts[:-1], starts[1:])}
+        return self._layout
+
+    def _scaled_x(self, phys: np.ndarray) -> np.ndarray:
+        with np.errstate(invalid='ignore', over='ignore'):
+            return np.clip((phys + self._dv_adder) * self._dv_scaler, -_INF, _INF)
+
+    def _scaled_con(self, phys: np.ndarray) -> np.ndarray:
+        with np.errstate(invalid='ignore', over='ignore'):
+            return np.clip((phys + self._con_adder) * self._con_scaler, -_INF, _INF)
+
+    def design_values(self) -> np.ndarray:
+        """Physical values of all design-variable entries, in the layout's order."""
+        self.layout()
+        return self._outputs.asarray()[self._dv_pos].copy()
+
+    def total_coloring(self) -> Coloring | None:
+        """The constraint Jacobian's coloring: the given one, or computed from the model's
+        declared structure (once)."""
+        lay = self.layout()
+        if self.coloring is None and lay.m:
+            self.coloring = compute_coloring(self.problem, lay.constraints, lay.design_vars)
+        c = self.coloring
+        if c is not None and tuple(c.shape) != (lay.m, lay.n):
+            raise ValueError(f'total coloring shape {c.shape} does not match the constraint '
+                             f'Jacobian ({lay.m}, {lay.n}); the cached coloring is stale')
+        return c
+
+    # ------------------------------------------------------------------ evaluations
+    def _evaluate(self, x: np.ndarray) -> None:
+        """Run the model at x (driver-scaled) unless it was the last point run."""
+        if self._x_run is not None and np.array_equal(x, self._x_run):
+            if self._eval_failed:
+                raise cyipopt.CyIpoptEvaluationError()
+            return
+        self._x_run = x.copy()
+        self._x_jac = None
+        self._eval_failed = False
+        data = self._outputs.asarray()
+        data[self._dv_pos] = x / self._dv_scaler - self._dv_adder
+        self.n_function_evals += 1
+        try:
+            self.problem.model.run_solve_nonlinear()
+        except om.AnalysisError as err:
+            self.last_error = str(err)
+            self._eval_failed = True
+            raise cyipopt.CyIpoptEvaluationError() from None
+        obj = (data[self._obj_pos] + self._obj_adder) * self._obj_scaler
+        con = (data[self._con_pos] + self._con_adder) * self._con_scaler
+        if not (np.all(np.isfinite(obj)) and np.all(np.isfinite(con))):
+            self.last_error = 'the model returned NaN or inf'
+            self._eval_failed = True
+            raise cyipopt.CyIpoptEvaluationError()
+        self._f, self._g = float(obj[0]), con
+
+    def _jacobian_values(self, x: np.ndarray) -> None:
+        self._evaluate(x)
+        if self._x_jac is not None and np.array_equal(x, self._x_jac):
+            return
+        self.n_gradient_evals += 1
+        try:
+            g, jac = self._totals.compute()
+        except om.AnalysisError as err:
+            self.last_error = str(err)
+            raise cyipopt.CyIpoptEvaluationError() from None
+        grad = g * (self._obj_scaler / self._dv_scaler)
+        jac = jac * self._jac_scaler
+        if not (np.all(np.isfinite(grad)) and np.all(np.isfinite(jac))):
+            self.last_error = 'the total derivatives contain NaN or inf'
+            raise cyipopt.CyIpoptEvaluationError()
+        self._grad, self._jac = grad, jac
+        self._x_jac = x.copy()
+
+    # cyipopt callbacks
+    def objective(self, x: np.ndarray) -> float:
+        self._evaluate(x)
+        return self._f
+
+    def constraints(self, x: np.ndarray) -> np.ndarray:
+        self._evaluate(x)
+        return self._g
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        self._jacobian_values(x)
+        return self._grad
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        self._jacobian_values(x)
+        return self._jac
+
+    def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._jrows, self._jcols
+
+    def intermediate(self, alg_mod, iter_count, obj_value, inf_pr, inf_du, mu, d_norm,
+                     regularization_size, alpha_du, alpha_pr, ls_trials) -> bool:
+        info = IterationInfo(iteration=int(iter_count), objective=float(obj_value),
+                             constraint_violation=float(inf_pr),
+                             dual_infeasibility=float(inf_du),
+                             elapsed_s=time.perf_counter() - self._t0)
+        if self.watch:
+            try:
+                x = np.asarray(self._nlp.get_current_iterate(scaled=False)['x'])
+            except Exception:  # not available during restoration
+                x = self._x_run
+            if x is not None:
+                phys = x / self._dv_scaler - self._dv_adder
+                info.design = {n: float(phys[self._dv_slices[n]][0]) for n in self.watch}
+        self.history.append(info)
+        if self.progress is not None:
+            self.progress(info)
+        return not self.interrupted
+
+    # ------------------------------------------------------------------ run
+    def prepare(self) -> None:
+        """Read the layout, get the coloring and set up the colored totals (done by
+        :meth:`run`; after it the cyipopt callbacks can be called directly)."""
+        lay = self.layout()
+        self.history = []
+        self.status, self.status_message, self.last_error = None, '', None
+        self.n_function_evals = self.n_gradient_evals = 0
+        self.interrupted = False
+        self._x_run = self._x_jac = None
+        self._eval_failed = False
+        self._t0 = time.perf_counter()
+        coloring = self.total_coloring()
+        if self._totals is None or self._totals.coloring is not coloring:
+            self._totals = ColoredTotals(self.problem, lay, coloring)
+        if coloring is not None:
+            self._jrows, self._jcols = coloring.rows, coloring.cols
+        else:  # no constraints
+            self._jrows = self._jcols = np.zeros(0, dtype=np.int64)
+        self._jac_scaler = self._con_scaler[self._jrows] / self._dv_scaler[self._jcols]
+
+    def scaled_design(self) -> np.ndarray:
+        """The model's current design in driver scaling (IPOPT's x)."""
+        return self._scaled_x(self.design_values())
+
+    def run(self, pinned: tuple[str, ...] | list[str] = ()) -> bool:
+        """Solve with IPOPT from the model's current design; ``pinned`` design variables
+        are held at their current values (IPOPT bounds lower = upper). Leaves the model at
+        IPOPT's final point. Returns True if IPOPT converged."""
+        self.prepare()
+        lay = self.layout()
+        x0 = self._scaled_x(self.design_values())
+        lb, ub = self._lb.copy(), self._ub.copy()
+        for name in pinned:
+            sl = self._dv_slices[name]
+            lb[sl] = ub[sl] = x0[sl]
+
+        self._nlp = nlp = cyipopt.Problem(n=lay.n, m=lay.m, problem_obj=self, lb=lb, ub=ub,
+                                          cl=self._cl, cu=self._cu)
+        for key, val in self.options.items():
+            nlp.add_option(key, val)
+        nlp.add_option('sb', 'yes')
+        for key, val in self.opt_settings.items():
+            _add_option(nlp, key, val)
+
+        def on_signal(signum, frame):
+            if self.interrupted:
+                raise KeyboardInterrupt
+            self.interrupted = True
+            print('\nInterrupt: stopping IPOPT after this iteration (again to abort).',
+                  file=sys.stderr)
+
+        previous = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                previous[sig] = signal.signal(sig, on_signal)
+            except ValueError:  # not in the main thread
+                pass
+        try:
+            x, info = nlp.solve(x0)
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+            nlp.close()
+            self._nlp = None
+        self.status = int(info['status'])
+        self.status_message = IPOPT_STATUS.get(self.status,
+                                               info['status_msg'].decode(errors='replace'))
+        # leave the model at IPOPT's final point
+        self._x_run = None
+        try:
+            self._evaluate(np.asarray(x))
+        except cyipopt.CyIpoptEvaluationError:
+            pass
+        return self.status in (0, 1)
+
+
+def _vec(value: Any, default: float, size: int) -> np.ndarray:
+    """``value`` (None, scalar or array) as a float vector of ``size``."""
+    if value is None:
+        return np.full(size, default)
+    return np.broadcast_to(np.asarray(value, dtype=float).ravel(), (size,)).copy() \
+        if np.size(value) in (1, size) else np.asarray(value, dtype=float).ravel()

@@ -1,0 +1,83 @@
+"""The model's declared structure, read from OpenMDAO: the one module with private names.
+
+The exact total-Jacobian sparsity (:mod:`suspopt.driver.sparsity`) is propagated
+through the model from each component's *declared* partial-derivative pattern and the
+connections between variables. OpenMDAO 3.45 has no public API for either, so this module
+reads them from its internals, and nothing else in suspopt does. Private names used:
+
+* ``Component._subjacs_info`` — the declared sub-Jacobians: ``{(of, wrt): meta}`` with
+  ``meta['rows']``, ``meta['cols']`` (sparse pattern), ``meta['diagonal']``,
+  ``meta['shape']`` (absolute variable names);
+* ``Group._conn_global_abs_in2out`` — every input's source output (absolute names);
+* ``System._var_abs2meta['input'][name]['src_inds_list']`` — the chain of source indices of
+  a connected input (turned into one flat index array by OpenMDAO's public
+  ``openmdao.utils.indexer.idx_list_to_index_array``).
+
+:data:`TESTED_VERSIONS` lists the OpenMDAO versions this was written against;
+:func:`supported` is False on any other, and the caller then uses OpenMDAO's public (dense)
+total coloring instead. ``tests/test_sparsity.py`` checks that both give the same pattern.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+import openmdao
+import openmdao.api as om
+from openmdao.utils.indexer import idx_list_to_index_array
+
+#: OpenMDAO versions whose internals this module reads.
+TESTED_VERSIONS = ('3.45.1',)
+
+
+def supported() -> bool:
+    """True if this OpenMDAO's internals are the ones this module was written against."""
+    return openmdao.__version__ in TESTED_VERSIONS
+
+
+@dataclass(frozen=True)
+class Subjac:
+    """One declared sub-Jacobian ``d of / d wrt`` of a component, as a coordinate pattern
+    (local row and column indices; ``dense`` when declared without a pattern)."""
+
+    of: str
+    wrt: str
+    rows: np.ndarray
+    cols: np.ndarray
+    shape: tuple[int, int]
+
+
+def declared_subjacs(component: om.ExplicitComponent | om.ImplicitComponent
+                     ) -> Iterator[Subjac]:
+    """The declared partial derivatives of ``component`` (after ``final_setup``).
+
+    An explicit component's identity ``d out / d out`` (its residual) is left out."""
+    explicit = isinstance(component, om.ExplicitComponent)
+    for (of, wrt), meta in component._subjacs_info.items():
+        if explicit and of == wrt:
+            continue
+        shape = tuple(int(s) for s in meta['shape'])
+        if meta.get('rows') is not None:
+            rows = np.asarray(meta['rows'], dtype=np.int64).ravel()
+            cols = np.asarray(meta['cols'], dtype=np.int64).ravel()
+        elif meta.get('diagonal'):
+            rows = cols = np.arange(shape[0], dtype=np.int64)
+        else:  # declared dense
+            rows = np.repeat(np.arange(shape[0], dtype=np.int64), shape[1])
+            cols = np.tile(np.arange(shape[1], dtype=np.int64), shape[0])
+        yield Subjac(of=of, wrt=wrt, rows=rows, cols=cols, shape=shape)
+
+
+def input_sources(model: om.Group) -> dict[str, tuple[str, np.ndarray | None]]:
+    """``{input: (source output, flat source index of each input entry or None)}`` for every
+    connected input of ``model`` (absolute names)."""
+    meta = model._var_abs2meta['input']
+    out = {}
+    for tgt, src in model._conn_global_abs_in2out.items():
+        idx = None
+        chain = meta[tgt].get('src_inds_list') if tgt in meta else None
+        if chain:
+            idx = np.asarray(idx_list_to_index_array(chain), dtype=np.int64).ravel()
+        out[tgt] = (src, idx)
+    return out
