@@ -66,7 +66,7 @@ def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float]) -> dict[
     Dymos/OpenMDAO problem), guess (the starting trajectory, `transcription.initial_guess`),
     coloring
     (zero when cached), solve (IPOPT, coloring excluded) and their total."""
-    from suspopt.problem import VehicleProblem
+    from suspopt.transcription.problem import VehicleProblem
     from suspopt.study import initial_guess
 
     t0 = time.perf_counter()

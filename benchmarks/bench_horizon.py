@@ -29,7 +29,7 @@ import json, resource, sys, time, dataclasses
 t_import = time.perf_counter()
 from suspopt.config import config_from_dict
 from suspopt.study import resolve_scales, initial_guess
-from suspopt.problem import VehicleProblem
+from suspopt.transcription.problem import VehicleProblem
 from suspopt.timemarching import simulate
 args = json.loads(sys.argv[1])
 T = args['horizon']

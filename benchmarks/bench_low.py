@@ -18,7 +18,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, stats, table, timed_optimize  # noqa: E402
 
-from suspopt.config import DESIGN_NAMES, StudyConfig  # noqa: E402
+from suspopt.config import StudyConfig  # noqa: E402
+
+DESIGN_NAMES = StudyConfig().design_names()
 from suspopt.study import resolve_scales  # noqa: E402
 
 

@@ -31,7 +31,8 @@ def once(verify: bool) -> dict:
             'mixed_solve': s['mixed']['times']['solve_s'],
             'coloring': sum(p['coloring_s'] for p in study['problems'].values()),
             'setup': sum(p['setup_s'] for p in study['problems'].values()),
-            'tm': sum(t['wall_time_s'] for t in study['time_marching'].values()),
+            'tm': sum(e['verification']['time_s'] for e in study['evaluations'].values()
+                      if e.get('verification') and 'time_s' in e['verification']),
             'f_low': s['low']['objective'], 'f_mixed': s['mixed']['objective']}
 
 

@@ -197,11 +197,13 @@ def resolve_scales(scales) -> tuple[float, ...]:
     """``None``/'reference' -> suspopt's time-marching J_k at the initial design;
     'paper' -> (0.1, 0.01, 1, 1); a 4-sequence is used as is."""
     if scales is None or (isinstance(scales, str) and scales == 'reference'):
-        return reference_scales(StudyConfig())
+        scales = reference_scales(StudyConfig())
     if isinstance(scales, str):
         if scales != 'paper':
             raise ValueError(f"scales must be 'reference', 'paper' or 4 numbers, got {scales!r}")
         return PAPER_SCALES
+    if isinstance(scales, tuple) and scales and isinstance(scales[0], dict):
+        scales = [scales[0][t] for t in StudyConfig().terms()]  # suspopt's per-term table
     scales = tuple(float(s) for s in scales)
     if len(scales) != 4 or not all(s > 0 for s in scales):
         raise ValueError(f'need 4 positive scales, got {scales}')

@@ -2,7 +2,7 @@
 
     python benchmarks/grid_convergence.py [--grids 16x5 32x5 64x5 80x5 64x6 96x5] [--mixed]
 
-For each grid, the largest relative difference over J1..J4 between the collocation
+For each grid, the largest relative difference over the J_k between the collocation
 solution (IPOPT solving the collocation equations at a fixed design) and adaptive time
 marching, at the initial design, the low-fidelity optimum and three corners of the
 design box; and f at the initial design (exactly 1 by time marching with the reference
@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import git_revision, machine  # noqa: E402
 
 from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.problem import VehicleProblem  # noqa: E402
+from suspopt.transcription.problem import VehicleProblem  # noqa: E402
 from suspopt.study import resolve_scales  # noqa: E402
 from suspopt.timemarching import simulate  # noqa: E402
 
@@ -58,7 +58,8 @@ def main() -> None:
                     vp.set_design(d)
                     vp.set_initial_guess(None)
                     res = vp.solve(optimize=False)
-                    errs.append(np.max(np.abs(np.array(res.terms) / tm[fid, name] - 1.0)))
+                    J = np.array([res.terms[0][t] for t in base.terms()])
+                    errs.append(np.max(np.abs(J / tm[fid, name] - 1.0)))
                     if name == 'initial':
                         f0 = res.objective
             print(f'| {grid} | {fid} | {f0:.4f} | ' + ' | '.join(f'{100 * e:.3f} %' for e in errs)

@@ -26,7 +26,7 @@ from suspopt.config import StudyConfig
 from suspopt.driver.sparsity import Coloring
 
 _MODEL_SOURCES = ('models', 'multibody/components.py', 'multibody/suspension.py',
-                  'problem.py', 'road.py', 'driver', 'cache.py')
+                  'transcription', 'road.py', 'driver', 'cache.py')
 
 
 def cache_dir() -> Path:
@@ -50,17 +50,19 @@ def _source_digest() -> str:
 def coloring_key(config: StudyConfig, fidelity: str) -> str:
     """Hex digest identifying the total-Jacobian structure of one problem."""
     from suspopt.multibody.mechanism import load_mechanism
+    v = config.vehicle
     structure = {
         'fidelity': fidelity,
-        'segments': config.transcription.segments,
-        'order': config.transcription.order,
+        'vehicle': [v.model, [ax.anti_roll_bar for ax in v.axles]],
+        'design': list(config.design_names()),
+        'grids': [(sc.segments, sc.order) for sc in config.scenarios()],
+        'aggregate': config.objective.aggregate,
         'versions': [openmdao.__version__, dymos.__version__],
         'source': _source_digest(),
     }
     if fidelity == 'mixed':
-        structure['mechanisms'] = [
-            load_mechanism(getattr(config.vehicle, axle).mechanism, suspension=True).structure()
-            for axle in ('front', 'rear')]
+        structure['mechanisms'] = [load_mechanism(ax.mechanism, suspension=True).structure()
+                                   for ax in v.axles]
     blob = json.dumps(structure, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:32]
 

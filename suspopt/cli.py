@@ -1,48 +1,74 @@
 """The ``suspopt`` command line.
 
     suspopt study     [--out DIR] [--config FILE] ...      the paper's two-step study
-    suspopt optimize  --fidelity low|mixed [--start K1,K2,C1,C2] [--out DIR] ...
-    suspopt evaluate  --fidelity low|mixed --design K1,K2,C1,C2 [--method ...]
+    suspopt optimize  --fidelity low|mixed [--start DESIGN] [--out DIR] ...
+    suspopt evaluate  --fidelity low|mixed [--design DESIGN] [--method ...]
     suspopt pareto    [--fidelity low|mixed] [--points N] [--out DIR] ...   comfort vs road holding
-    suspopt init FILE                                     write the paper's case as a study file
+    suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
 
-Exit codes: 0 success; 1 a model or optimization failure (results so far are kept);
-2 bad input (one line per problem, naming the key); 130 interrupted.
+A DESIGN is the design variables' values in order (``30000,30000,3000,3000`` for the half
+car's k_S1, k_S2, c_S1, c_S2) or by name (``k_S1=30000,c_S2=2500``; the others keep their
+configured values).
+
+Exit codes: 0 success (every result verified by time marching); 1 a model or optimization
+failure (results so far are kept); 2 bad input (one line per problem, naming the key);
+3 a result not verified (collocation and time marching disagree; the results are written,
+marked so); 4 the environment failed (unwritable or full output directory); 130
+interrupted (Ctrl-C or SIGTERM: stops at the next safe point, keeps what finished).
 """
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import math
 import os
+import signal
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
-from suspopt.config import DESIGN_NAMES, StudyConfig, config_from_dict, load_config
-from suspopt.errors import ConfigError, SuspoptError
+from suspopt.config import StudyConfig, config_from_dict, load_config
+from suspopt.errors import ConfigError, NotVerified, SuspoptError
 
-EPILOG = 'Exit codes: 0 ok, 1 model/optimization failure, 2 bad input, 130 interrupted.'
+EPILOG = ('Exit codes: 0 ok (verified), 1 model/optimization failure, 2 bad input, '
+          '3 not verified by time marching, 4 output not writable, 130 interrupted.')
 
 
-def _design(text: str, flag: str) -> dict[str, float]:
-    parts = text.split(',')
-    try:
-        values = [float(p) for p in parts]
-    except ValueError:
-        values = []
-    if len(values) != 4:
-        raise ConfigError(f'{flag}: expected four numbers K1,K2,C1,C2 '
-                          f'(k_S1, k_S2 [N/m], c_S1, c_S2 [N s/m]), got {text!r}')
-    bad = [f'{n} = {v:g}' for n, v in zip(DESIGN_NAMES, values)
-           if not math.isfinite(v) or v < 0.0 or (n.startswith('k') and v == 0.0)]
+def parse_design(text: str, flag: str, config: StudyConfig) -> dict[str, float]:
+    """A design from ``--start``/``--design``: values in the design order, or name=value
+    pairs (the rest from the configuration); checked finite, positive and in the bounds."""
+    names = config.design_names()
+    parts = [p.strip() for p in text.split(',') if p.strip()]
+    design = config.design.initial()
+    if parts and all('=' in p for p in parts):
+        for p in parts:
+            name, _, val = p.partition('=')
+            name = name.strip()
+            if name not in names:
+                raise ConfigError(f'{flag}: unknown design variable {name!r} '
+                                  f'(this car: {", ".join(names)})')
+            try:
+                design[name] = float(val)
+            except ValueError:
+                raise ConfigError(f'{flag}: {name} = {val!r} is not a number') from None
+    else:
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            values = []
+        if len(values) != len(names):
+            raise ConfigError(f'{flag}: expected {len(names)} numbers ({",".join(names)}) or '
+                              f'name=value pairs, got {text!r}')
+        design.update(zip(names, values))
+    bad = [f'{n} = {v:g}' for n, v in design.items() if not math.isfinite(v) or v < 0.0]
     if bad:
-        raise ConfigError(f'{flag}: spring rates must be finite and > 0, damping finite and '
-                          f'>= 0; got {", ".join(bad)}')
-    return dict(zip(DESIGN_NAMES, values))
+        raise ConfigError(f'{flag}: design values must be finite and >= 0, got {", ".join(bad)}')
+    out = [f'{n} = {v:g} is outside [{lo:g}, {hi:g}]' for n, v in design.items()
+           for lo, hi in [config.design.bounds()[n]] if not lo <= v <= hi]
+    if out:
+        raise ConfigError(f'{flag}: {"; ".join(out)}')
+    return design
 
 
 def _config(args: argparse.Namespace) -> StudyConfig:
@@ -52,9 +78,14 @@ def _config(args: argparse.Namespace) -> StudyConfig:
     if getattr(args, 'normalization', None):
         data['objective']['normalization'] = args.normalization
         if args.normalization != 'custom':
-            data['objective']['scales'] = []
+            data['objective']['scales'] = {}
     if getattr(args, 'segments', None) is not None:
-        data['transcription']['segments'] = args.segments
+        try:
+            data['transcription']['segments'] = args.segments if args.segments == 'auto' \
+                else int(args.segments)
+        except ValueError:
+            raise ConfigError(f'--segments: must be an integer or "auto", '
+                              f'got {args.segments!r}') from None
     if getattr(args, 'order', None) is not None:
         data['transcription']['order'] = args.order
     if getattr(args, 'max_iter', None) is not None:
@@ -63,21 +94,22 @@ def _config(args: argparse.Namespace) -> StudyConfig:
 
 
 def _start(args: argparse.Namespace, config: StudyConfig) -> dict[str, float] | None:
-    """``--start``: where IPOPT starts, inside the bounds. It is not the study's initial
-    design, which also defines the ``reference`` normalization (SPEC §5): an optimization
-    from another start still minimizes the same f."""
+    """``--start``: where IPOPT starts, inside the bounds. Only the free variables move:
+    a variable with ``optimize = false`` keeps its configured value (it is not optimized).
+    It is not the study's initial design, which also defines the ``reference``
+    normalization (SPEC §5): an optimization from another start minimizes the same f."""
     if not args.start:
         return None
-    start = _design(args.start, '--start')
-    bad = [f'{n} = {v:g} is outside [{lo:g}, {hi:g}]'
-           for n, v in start.items() for lo, hi in [config.design.bounds()[n]]
-           if not lo <= v <= hi]
-    if bad:
-        raise ConfigError(f'--start: {"; ".join(bad)}')
+    start = parse_design(args.start, '--start', config)
+    held = [n for n in config.design_names() if not config.design[n].optimize
+            and start[n] != config.design[n].initial]
+    if held:
+        raise ConfigError(f'--start: {", ".join(held)} has optimize = false in the study file '
+                          'and is held at its initial value; change it there, not in --start')
     return start
 
 
-def _printer(quiet: bool):
+def _printer(quiet: bool, names: tuple[str, ...]):
     if quiet:
         return None, (lambda msg: None)
     state = {'header': False}
@@ -85,15 +117,12 @@ def _printer(quiet: bool):
     def progress(info) -> None:
         if not state['header']:
             print(f"{'iter':>5} {'objective':>12} {'constr.viol':>11} {'elapsed':>8}  "
-                  'k_S1      k_S2      c_S1     c_S2', file=sys.stderr)
+                  + '  '.join(f'{n:>8}' for n in names), file=sys.stderr)
             state['header'] = True
-        d = info.design
-        vals = '  '.join(f'{d[k]:8.1f}' for k in sorted(d, key=lambda n: DESIGN_NAMES.index(
-            n.rsplit(':', 1)[-1]))) if d else ''
+        d = {k.rsplit(':', 1)[-1]: v for k, v in info.design.items()}
+        vals = '  '.join(f'{d[n]:8.1f}' for n in names if n in d)
         print(f'{info.iteration:5d} {info.objective:12.6f} {info.constraint_violation:11.2e} '
               f'{info.elapsed_s:7.1f}s  {vals}', file=sys.stderr, flush=True)
-        if info.iteration == 0:
-            pass
 
     def log(msg: str) -> None:
         state['header'] = False
@@ -102,32 +131,47 @@ def _printer(quiet: bool):
     return progress, log
 
 
+def _verdict(res: dict[str, Any]) -> str:
+    v = res.get('verified')
+    if not res['success']:
+        return 'NOT converged'
+    if v is None:
+        return 'converged, NOT checked by time marching (--no-verify)'
+    return 'converged and verified by time marching' if v else \
+        'converged but NOT VERIFIED (collocation and time marching disagree)'
+
+
 def _summary(res: dict[str, Any]) -> str:
     d, J, s = res['design'], res['terms'], res['scales']
+    f = res['objective'] if res['objective'] is not None else res.get('objective_at_stop')
     lines = [f"{res['fidelity']}-fidelity {res['mode']} ({res['method']}): "
-             f"{'converged' if res['success'] else 'NOT converged'} — {res['status']}",
-             f"  design   k_S1 = {d['k_S1']:.1f} N/m, k_S2 = {d['k_S2']:.1f} N/m, "
-             f"c_S1 = {d['c_S1']:.1f} N s/m, c_S2 = {d['c_S2']:.1f} N s/m",
-             f"  objective f = {res['objective']:.6f}   "
-             + '  '.join(f'{k} = {v:.5g}' for k, v in J.items()),
+             f"{_verdict(res)} — {res['status']}",
+             '  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+             f"  objective f = {f:.6f}{'' if res['success'] else ' (not converged)'}   "
+             + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items()),
              f"  scales ({res['normalization']}) "
-             + '  '.join(f'{k} = {v:.5g}' for k, v in s.items()),
-             f"  iterations {res['iterations']}, wall time {res['wall_time_s']:.2f} s"]
+             + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())]
+    v = res.get('verification') or {}
+    if 'max_rel_diff' in v:
+        lines.append(f"  time marching f = {v['objective']:.6f}, largest relative difference "
+                     f"{v['max_rel_diff']:.2g} (tolerance {v['tolerance']:g}, "
+                     f"{v['time_s']:.2f} s)")
+    lines.append(f"  iterations {res['iterations']}, wall time {res['wall_time_s']:.2f} s")
     return '\n'.join(lines)
 
 
-def cmd_optimize(args: argparse.Namespace) -> int:
-    from suspopt.study import optimize, prepare_out_dir
-    config = _config(args)
-    start = _start(args, config)
-    out = prepare_out_dir(args.out, args.overwrite)
-    progress, log = _printer(args.quiet)
-    log(f'optimizing the {args.fidelity}-fidelity model; results in {out}')
-    res = optimize(config, args.fidelity, start=start, out_dir=out, progress=progress)
-    print(_summary(res))
+def _check_result(res: dict[str, Any]) -> int:
+    """The exit code of one result (and its one-line message on stderr)."""
     if not res['success']:
         _fail_message(res)
         return 1
+    if res.get('verified') is False:
+        v = res['verification']
+        print(f"suspopt: error: result NOT verified: collocation and time marching differ by "
+              f"{100 * v['max_rel_diff']:.3g} % on some objective term (tolerance "
+              f"{100 * v['tolerance']:g} %); the grid is too coarse for this car and road: "
+              'more --segments, or segments = "auto"', file=sys.stderr)
+        return NotVerified.exit_code
     return 0
 
 
@@ -135,55 +179,75 @@ def _fail_message(res: dict[str, Any]) -> None:
     last = res.get('last_iterate') or {}
     best = res.get('best_feasible_iterate')
     msg = (f"suspopt: error: IPOPT did not converge ({res['status']}) after "
-           f"{res['iterations']} iterations: last objective {last.get('objective', float('nan')):.6g}, "
-           f"constraint violation {last.get('constraint_violation', float('nan')):.2e}")
+           f"{res['iterations']} iterations: last objective "
+           f"{last.get('objective', float('nan')):.6g}, constraint violation "
+           f"{last.get('constraint_violation', float('nan')):.2e}")
     if best:
         msg += (f"; best feasible iterate {best['iteration']} f = {best['objective']:.6g} at "
                 + ', '.join(f'{k} = {v:.1f}' for k, v in best['design'].items()))
     print(msg, file=sys.stderr)
 
 
+def cmd_optimize(args: argparse.Namespace) -> int:
+    from suspopt.results import RunDirectory
+    from suspopt.study import optimize
+    config = _config(args)
+    start = _start(args, config)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'optimizing the {args.fidelity}-fidelity model; results in {out.path}')
+        res = optimize(config, args.fidelity, start=start, out_dir=out.path,
+                       progress=progress, verify=not args.no_verify)
+    print(_summary(res))
+    return _check_result(res)
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from suspopt.study import evaluate
     config = _config(args)
-    design = _design(args.design, '--design') if args.design else None
-    res = evaluate(config, args.fidelity, design, method=args.method)
+    design = parse_design(args.design, '--design', config) if args.design else None
+    res = evaluate(config, args.fidelity, design, method=args.method,
+                   verify=not args.no_verify)
     res.pop('history', None)
     print(json.dumps(res, indent=2, default=float))
-    return 0 if res['success'] else 1
+    return _check_result(res) if args.method == 'collocation' else 0
 
 
 def cmd_study(args: argparse.Namespace) -> int:
-    from suspopt.study import StepFailed, prepare_out_dir, run_study
+    from suspopt.results import RunDirectory
+    from suspopt.study import StepFailed, run_study
     config = _config(args)
-    out = prepare_out_dir(args.out, args.overwrite)
-    progress, log = _printer(args.quiet)
-    log(f'two-step study; results in {out}')
-    try:
-        study = run_study(config, out, progress=progress, log=log, verify=not args.no_verify)
-    except StepFailed as err:
-        print(f'suspopt: error: {err}; partial results in {out}', file=sys.stderr)
-        return 1
-    print((out / 'table.md').read_text())
-    print(f"results: {out}/study.json, {out}/table.md, {out}/figures/ "
-          f"({study['wall_time_s']:.1f} s)")
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'two-step study; results in {out.path}')
+        try:
+            study = run_study(config, out, progress=progress, log=log,
+                              verify=not args.no_verify)
+        except StepFailed as err:
+            print(f'suspopt: error: {err}; partial results in {out.path}', file=sys.stderr)
+            return 1
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/study.json, table.md, figures/ ({study['wall_time_s']:.1f} s)")
+    if study.get('verified') is False:
+        print(f"suspopt: error: {study['warnings'][-1]}", file=sys.stderr)
+        return NotVerified.exit_code
     return 0
 
 
 def cmd_pareto(args: argparse.Namespace) -> int:
     from suspopt.pareto import run_pareto
-    from suspopt.study import prepare_out_dir
+    from suspopt.results import RunDirectory
     if args.points < 2:
         raise ConfigError(f'--points: need at least 2, got {args.points}')
     config = _config(args)
-    out = prepare_out_dir(args.out, args.overwrite)
-    progress, log = _printer(args.quiet)
-    log(f'Pareto front of the {args.fidelity}-fidelity model, {args.points} points; '
-        f'results in {out}')
-    front = run_pareto(config, out, fidelity=args.fidelity, points=args.points,
-                       progress=progress, log=log)
-    print((out / 'table.md').read_text())
-    print(f"results: {out}/pareto.json, {out}/table.md, {out}/figures/pareto.png "
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'Pareto front of the {args.fidelity}-fidelity model, {args.points} points; '
+            f'results in {out.path}')
+        front = run_pareto(config, out, fidelity=args.fidelity, points=args.points,
+                           progress=progress, log=log, verify=not args.no_verify)
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/pareto.json, table.md, figures/pareto.png "
           f"({front['wall_time_s']:.1f} s)")
     failed = [p for p in front['points'] if not p['success']]
     if failed:
@@ -191,21 +255,27 @@ def cmd_pareto(args: argparse.Namespace) -> int:
         print(f'suspopt: error: IPOPT did not converge at comfort share(s) {where}; the '
               'other points are kept', file=sys.stderr)
         return 1
+    unverified = [p for p in front['points'] if p.get('verified') is False]
+    if unverified:
+        print('suspopt: error: NOT verified by time marching at comfort share(s) '
+              + ', '.join(f"{p['alpha']:.3f}" for p in unverified), file=sys.stderr)
+        return NotVerified.exit_code
     return 0
 
 
 def cmd_init(args: argparse.Namespace) -> int:
-    from suspopt.config import default_config_toml
+    from suspopt.config_file import default_config_toml
     path = Path(args.file)
     if path.exists() and not args.overwrite:
         raise ConfigError(f'{path} exists; pass --overwrite to replace it')
     if not path.parent.is_dir():
         raise ConfigError(f'{path}: directory {path.parent} does not exist')
     try:
-        path.write_text(default_config_toml())
+        path.write_text(default_config_toml(args.model))
     except OSError as err:
         raise ConfigError(f'cannot write {path}: {err.strerror}') from None
-    print(f'wrote {path} (the paper\'s case; edit it and pass --config {path})')
+    what = "the paper's case" if args.model == 'half_car' else 'the default full car'
+    print(f'wrote {path} ({what}; edit it and pass --config {path})')
     return 0
 
 
@@ -220,43 +290,45 @@ def cmd_report(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='suspopt', epilog=EPILOG,
-        description='Mixed-fidelity suspension design optimization (half car + multibody '
-                    'double wishbone; Dymos Radau collocation; IPOPT).')
+        description='Mixed-fidelity suspension design optimization (half or full car + '
+                    'multibody suspension linkages; Dymos Radau collocation; IPOPT).')
     sub = parser.add_subparsers(dest='command', required=True)
 
-    def common(p: argparse.ArgumentParser, grid: bool = True) -> None:
+    def common(p: argparse.ArgumentParser, grid: bool = True, verify: bool = True) -> None:
         p.add_argument('--config', metavar='FILE', help='study file (TOML); see `suspopt init`')
         p.add_argument('--normalization', choices=('reference', 'paper'),
                        help='objective normalization (SPEC §5); default: from the config')
         if grid:
-            p.add_argument('--segments', type=int, metavar='N', help='collocation segments')
+            p.add_argument('--segments', metavar='N', help='collocation segments, or "auto"')
             p.add_argument('--order', type=int, metavar='P', help='Radau order per segment')
+        if verify:
+            p.add_argument('--no-verify', action='store_true',
+                           help='skip the time-marching verification (the results say so)')
+
+    def run_opts(p: argparse.ArgumentParser, out: str | None) -> None:
+        p.add_argument('--out', default=out, metavar='DIR',
+                       help='output directory' + (' (default: %(default)s)' if out else ''))
+        p.add_argument('--overwrite', action='store_true',
+                       help='reuse a non-empty --out (its earlier results are removed first)')
+        p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
+        p.add_argument('--quiet', action='store_true', help='no progress lines')
 
     p = sub.add_parser('study', help="run the paper's two-step study", epilog=EPILOG)
     common(p)
-    p.add_argument('--out', default='results/study', metavar='DIR',
-                   help='output directory (default: %(default)s)')
-    p.add_argument('--overwrite', action='store_true', help='reuse a non-empty --out')
-    p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
-    p.add_argument('--no-verify', action='store_true',
-                   help='skip the time-marching verification of every design')
-    p.add_argument('--quiet', action='store_true', help='no progress lines')
+    run_opts(p, 'results/study')
     p.set_defaults(func=cmd_study)
 
     p = sub.add_parser('optimize', help='optimize one model', epilog=EPILOG)
     p.add_argument('--fidelity', choices=('low', 'mixed'), required=True)
     common(p)
-    p.add_argument('--start', metavar='K1,K2,C1,C2', help='starting design (default: config)')
-    p.add_argument('--out', metavar='DIR', help='output directory (default: results/optimize-FIDELITY)')
-    p.add_argument('--overwrite', action='store_true', help='reuse a non-empty --out')
-    p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
-    p.add_argument('--quiet', action='store_true', help='no progress lines')
+    p.add_argument('--start', metavar='DESIGN', help='starting design (default: config)')
+    run_opts(p, None)
     p.set_defaults(func=cmd_optimize)
 
     p = sub.add_parser('evaluate', help='evaluate one design without optimizing', epilog=EPILOG)
     p.add_argument('--fidelity', choices=('low', 'mixed'), required=True)
     common(p)
-    p.add_argument('--design', metavar='K1,K2,C1,C2', help='design (default: config initial)')
+    p.add_argument('--design', metavar='DESIGN', help='design (default: config initial)')
     p.add_argument('--method', choices=('collocation', 'time-marching'), default='collocation')
     p.set_defaults(func=cmd_evaluate)
 
@@ -266,23 +338,25 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.add_argument('--points', type=int, default=9, metavar='N',
                    help='comfort shares 0 ... 1 (default: %(default)s)')
-    p.add_argument('--out', default='results/pareto', metavar='DIR',
-                   help='output directory (default: %(default)s)')
-    p.add_argument('--overwrite', action='store_true', help='reuse a non-empty --out')
-    p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
-    p.add_argument('--quiet', action='store_true', help='no progress lines')
+    run_opts(p, 'results/pareto')
     p.set_defaults(func=cmd_pareto)
 
-    p = sub.add_parser('init', help="write the paper's case as a commented study file")
+    p = sub.add_parser('init', help='write a default car as a commented study file')
     p.add_argument('file')
+    p.add_argument('--model', choices=('half_car', 'full_car'), default='half_car',
+                   help="the paper's half car (default) or the default full car")
     p.add_argument('--overwrite', action='store_true')
     p.set_defaults(func=cmd_init)
 
-    p = sub.add_parser('report', help="re-render the table and figures of a study or an "
-                                      "optimize run from its records")
+    p = sub.add_parser('report', help="re-render the table and figures of a run from its "
+                                      "results directory")
     p.add_argument('dir')
     p.set_defaults(func=cmd_report)
     return parser
+
+
+def _sigterm_as_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -291,6 +365,10 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, 'command', None) == 'optimize' and not args.out:
         args.out = f'results/optimize-{args.fidelity}'
     _quiet_libraries()
+    try:
+        previous = signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+    except ValueError:  # not in the main thread
+        previous = None
     try:
         return args.func(args)
     except ConfigError as err:
@@ -303,12 +381,23 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print('suspopt: interrupted; results written so far are kept', file=sys.stderr)
         return 130
+    except MemoryError:
+        print('suspopt: error: out of memory (a smaller grid or horizon, or fewer scenarios)',
+              file=sys.stderr)
+        return 4
+    except OSError as err:  # the environment, not suspopt
+        print(f'suspopt: error: {err.strerror or err}: {err.filename or ""}'.rstrip(': '),
+              file=sys.stderr)
+        return 4
     except Exception as err:  # a bug: one line for the user, the traceback on request
         if os.environ.get('SUSPOPT_DEBUG'):
             raise
         print(f'suspopt: error: unexpected {type(err).__name__}: {err} (this is a bug in '
               'suspopt; SUSPOPT_DEBUG=1 shows the traceback)', file=sys.stderr)
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _quiet_libraries() -> None:

@@ -1,9 +1,16 @@
 """Exceptions with the exit codes the command line maps them to.
 
-``ConfigError`` (exit 2): bad input, detected before any work starts.
-``ModelError`` (exit 1): a model evaluation failed (NaN/inf, singular or non-converged
-multibody configuration).
-``OptimizationFailed`` (exit 1): IPOPT did not converge; carries the partial result.
+The command line's exit codes:
+
+* 0 — success (every result verified by time marching, or verification skipped on request);
+* 1 — ``ModelError``: a model evaluation failed (NaN/inf, singular or non-converged
+  multibody configuration), or IPOPT did not converge (``OptimizationFailed``);
+* 2 — ``ConfigError``: bad input (study file, mechanism or road data, arguments, a damaged
+  results directory), detected before any work starts;
+* 3 — ``NotVerified``: a result whose collocation and time marching disagree beyond the
+  verification tolerance (the results are written, marked ``verified: false``);
+* 4 — ``RunError``: the environment failed (an unwritable or full output directory);
+* 130 — interrupted (Ctrl-C or SIGTERM); what finished is kept.
 """
 from __future__ import annotations
 
@@ -40,3 +47,15 @@ class OptimizationFailed(SuspoptError, RuntimeError):
     def __init__(self, message: str, result: Any = None):
         super().__init__(message)
         self.result = result
+
+
+class NotVerified(SuspoptError):
+    """A result's collocation and time marching disagree beyond the tolerance."""
+
+    exit_code = 3
+
+
+class RunError(SuspoptError, OSError):
+    """The environment failed: an output file could not be written (disk full, read-only)."""
+
+    exit_code = 4

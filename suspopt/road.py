@@ -13,6 +13,12 @@ Built-in profiles (``profile = ...`` in the study file):
 ``step``       a smoothed step of height ``h`` rising over ``ramp_length`` from ``position``.
 ``iso8608``    a random road of an ISO 8608 class (A-H) and seed, as a sum of cosines.
 ``csv``        a measured profile: a CSV file of distance [m], height [m].
+
+A vehicle with two wheel tracks (the full car) drives on :func:`road_tracks`: the same
+profile under both tracks, two profiles (``profile = "two_tracks"`` with ``left`` and
+``right`` tables, e.g. two CSV files), or an ISO 8608 road whose right track is coherent
+with the left one by the isotropic model of Kamash & Robson (1978): for the ISO waviness
+2, the coherence at track separation B is ``γ(n) = x K₁(x)``, ``x = 2π n B``.
 """
 from __future__ import annotations
 
@@ -45,6 +51,11 @@ class RoadProfile:
     def breakpoints(self) -> list[float]:
         """Distances where ``r''`` is discontinuous (for the time-marching integrator)."""
         return []
+
+    def max_frequency(self) -> float:
+        """The highest significant spatial frequency of the profile [cycle/m] (for the
+        automatic grid)."""
+        raise NotImplementedError
 
     def to_dict(self) -> dict[str, Any]:
         d = {'profile': self.kind}
@@ -96,6 +107,10 @@ class CosineBumps(RoadProfile):
     def breakpoints(self) -> list[float]:
         return sorted({b for s_j in self.starts for b in (s_j, s_j + self.length)})
 
+    def max_frequency(self) -> float:
+        """A 1-cos bump of length ℓ is one period of frequency 1/ℓ."""
+        return 1.0 / self.length
+
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
         errs = []
         if not self.length > 0.0:
@@ -145,6 +160,10 @@ class SmoothStep(RoadProfile):
     def breakpoints(self) -> list[float]:
         return [self.position, self.position + self.ramp_length]
 
+    def max_frequency(self) -> float:
+        """The ramp is half a period of frequency 1/(2 ramp_length)."""
+        return 0.5 / self.ramp_length
+
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
         if not self.ramp_length > 0.0:
             return [f'{where}.ramp_length: must be > 0 (a sharp step is not integrable), '
@@ -169,8 +188,9 @@ class ISO8608Road(RoadProfile):
     on a uniform grid of spacing ``1/(16 n_max)`` (the sum of cosines exactly at the grid
     points) and interpolated by a cubic spline (C², so no breakpoints): evaluating it costs
     the same whatever the number of cosines. ``n_max`` defaults to 1 cycle/m (10 Hz at
-    10 m/s). The first ``fade_in`` metres fade in with a half-cosine window so that the
-    zero initial state of SPEC §1 is consistent.
+    10 m/s). The first ``fade_in`` metres fade in with a half-cosine window (applied to the
+    samples) so that the zero initial state of SPEC §1 is consistent; before the road
+    starts (the rear wheel at t = 0) it is flat at zero.
     """
 
     kind: ClassVar[str] = 'iso8608'
@@ -180,6 +200,7 @@ class ISO8608Road(RoadProfile):
     n_max: float = 1.0
     length: float = 2000.0
     fade_in: float = 2.0
+    coherence: str = 'isotropic'
 
     #: grid points per wavelength of n_max (cubic spline interpolation between them)
     samples_per_wavelength: ClassVar[int] = 16
@@ -201,30 +222,29 @@ class ISO8608Road(RoadProfile):
     @property
     def _spline(self):
         return _iso8608_spline(self.road_class.upper(), self.seed, self.n_min, self.n_max,
-                               self.length)
+                               self.length, self.fade_in, self.coherence, 0, 0.0)
 
-    def _window(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.fade_in <= 0.0:
-            return (s >= 0.0).astype(float), np.zeros_like(s)
-        x = np.clip(s / self.fade_in, 0.0, 1.0)
-        w = 0.5 * (1.0 - np.cos(np.pi * x))
-        dw = np.where((s > 0.0) & (s < self.fade_in),
-                      0.5 * np.pi / self.fade_in * np.sin(np.pi * x), 0.0)
-        return w, dw
+    def track(self, index: int, separation: float) -> 'RoadProfile':
+        """This road under wheel track ``index`` (0 left, 1 right), the tracks
+        ``separation`` metres apart: the right track shares the left one's lines, each mixed
+        with an independent one by the coherence model (same PSD, coherence γ(n))."""
+        return self if index == 0 else _ISO8608Track(
+            **{f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init},
+            track_index=index, separation=separation)
 
     def r(self, s: ArrayLike) -> np.ndarray:
-        s = np.asarray(s, dtype=float)
-        w, _ = self._window(s)
-        return w * self._spline(np.clip(s, 0.0, self.length))
+        return self._spline(np.clip(np.asarray(s, dtype=float), 0.0, self.length))
 
     def dr_ds(self, s: ArrayLike) -> np.ndarray:
         s = np.asarray(s, dtype=float)
-        sc = np.clip(s, 0.0, self.length)
-        w, dw = self._window(s)
-        return dw * self._spline(sc) + w * self._spline(sc, 1)
+        return np.where((s > 0.0) & (s < self.length),
+                        self._spline(np.clip(s, 0.0, self.length), 1), 0.0)
 
     def breakpoints(self) -> list[float]:
         return [0.0, self.fade_in] if self.fade_in > 0.0 else [0.0]
+
+    def max_frequency(self) -> float:
+        return self.n_max
 
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
         errs = []
@@ -249,7 +269,41 @@ class ISO8608Road(RoadProfile):
                         f'[{self.n_min:g}, {self.n_max:g}] cycle/m (lines are 1/length apart)')
         if self.fade_in < 0.0:
             errs.append(f'{where}.fade_in: must be >= 0, got {self.fade_in}')
+        if self.coherence not in COHERENCE_MODELS:
+            errs.append(f'{where}.coherence: must be one of {", ".join(COHERENCE_MODELS)}, '
+                        f'got {self.coherence!r}')
         return errs
+
+
+#: Left/right coherence of an ISO 8608 road's two tracks.
+COHERENCE_MODELS = ('isotropic', 'identical', 'independent')
+
+
+def track_coherence(model: str, n: np.ndarray, separation: float) -> np.ndarray:
+    """Coherence γ(n) of two parallel tracks ``separation`` metres apart: ``isotropic``
+    (Kamash & Robson 1978, waviness 2: γ = x K₁(x), x = 2π n B), ``identical`` (1) or
+    ``independent`` (0)."""
+    if model == 'identical' or separation <= 0.0:
+        return np.ones_like(n)
+    if model == 'independent':
+        return np.zeros_like(n)
+    from scipy.special import k1
+    x = 2.0 * np.pi * n * separation
+    return x * k1(x)
+
+
+@dataclass(frozen=True)
+class _ISO8608Track(ISO8608Road):
+    """The right track of an :class:`ISO8608Road` (built by :meth:`ISO8608Road.track`)."""
+
+    track_index: int = 1
+    separation: float = 0.0
+
+    @property
+    def _spline(self):
+        return _iso8608_spline(self.road_class.upper(), self.seed, self.n_min, self.n_max,
+                               self.length, self.fade_in, self.coherence, self.track_index,
+                               self.separation)
 
 
 @dataclass(frozen=True)
@@ -291,6 +345,20 @@ class CSVRoad(RoadProfile):
     def breakpoints(self) -> list[float]:
         return [float(self._spline.x[0])]
 
+    def max_frequency(self) -> float:
+        """The frequency below which 99.9 % of the profile's variance lies (its spectrum
+        on a uniform resampling at the smallest data spacing)."""
+        s, h = self._data()
+        ds = float(np.min(np.diff(s)))
+        n = min(int(np.ceil((s[-1] - s[0]) / ds)) + 1, 2**22)
+        grid = np.linspace(s[0], s[-1], n)
+        power = np.abs(np.fft.rfft(self._spline(grid) - np.mean(h)))**2
+        freq = np.fft.rfftfreq(n, d=(s[-1] - s[0]) / (n - 1))
+        cum = np.cumsum(power[1:])
+        if cum.size == 0 or cum[-1] <= 0.0:
+            return float(freq[-1])
+        return float(freq[1:][np.searchsorted(cum, 0.999 * cum[-1])])
+
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
         try:
             s, _ = self._data()
@@ -303,20 +371,29 @@ class CSVRoad(RoadProfile):
 
 
 @functools.lru_cache(maxsize=8)
-def _iso8608_spline(road_class: str, seed: int, n_min: float, n_max: float, length: float):
-    """The synthesized profile of :class:`ISO8608Road` (a pure function of its parameters,
-    memoized: every model and integrator of a study shares one synthesis)."""
+def _iso8608_spline(road_class: str, seed: int, n_min: float, n_max: float, length: float,
+                    fade_in: float, coherence: str, track: int, separation: float):
+    """The synthesized profile of an :class:`ISO8608Road` track (a pure function of its
+    parameters, memoized: every model and integrator of a study shares one synthesis)."""
     from scipy.interpolate import CubicSpline
     road = ISO8608Road(road_class=road_class, seed=seed, n_min=n_min, n_max=n_max,
                        length=length)
     n, amp, phase = road.lines()
+    coef = np.exp(1j * phase)
+    if track:  # mix in an independent set of phases (a second stream of the same seed)
+        gamma = track_coherence(coherence, n, separation)
+        other = np.random.default_rng([seed, track]).uniform(0.0, 2.0 * np.pi, n.size)
+        coef = gamma * coef + np.sqrt(np.maximum(1.0 - gamma**2, 0.0)) * np.exp(1j * other)
     samples = int(np.ceil(length * ISO8608Road.samples_per_wavelength * n_max))
     k = np.rint(n * length).astype(np.int64)
     spec = np.zeros(samples // 2 + 1, dtype=complex)
-    spec[k] = 0.5 * amp * np.exp(1j * phase) * samples
+    spec[k] = 0.5 * amp * coef * samples
     h = np.fft.irfft(spec, n=samples)  # Σ a cos(2π n s + φ) at s = i·length/samples
     s = np.arange(samples + 1) * (length / samples)
-    return CubicSpline(s, np.append(h, h[0]), bc_type='periodic')
+    h = np.append(h, h[0])
+    if fade_in > 0.0:  # the half-cosine window: zero height and slope at s = 0
+        h *= 0.5 * (1.0 - np.cos(np.pi * np.clip(s / fade_in, 0.0, 1.0)))
+    return CubicSpline(s, h, bc_type=((1, 0.0), 'not-a-knot') if fade_in > 0.0 else 'periodic')
 
 
 def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
@@ -372,6 +449,25 @@ def make_road(description: dict[str, Any]) -> RoadProfile:
     return cls(**params)
 
 
+TWO_TRACKS = 'two_tracks'
+
+
+def road_tracks(description: dict[str, Any], n_tracks: int = 1,
+                separation: float = 0.0) -> tuple[RoadProfile, ...]:
+    """The profile under each of ``n_tracks`` wheel tracks ``separation`` metres apart:
+    ``two_tracks`` gives its ``left`` and ``right`` profiles; an ISO 8608 road its coherent
+    right track (:meth:`ISO8608Road.track`); any other profile is the same under both."""
+    if description.get('profile') == TWO_TRACKS:
+        tracks = (make_road(description['left']), make_road(description['right']))
+        return tracks[:n_tracks] if n_tracks == 1 else tracks
+    road = make_road(description)
+    if n_tracks == 1:
+        return (road,)
+    if isinstance(road, ISO8608Road):
+        return (road, road.track(1, separation))
+    return (road,) * n_tracks
+
+
 def wheel_road_inputs(road: RoadProfile, t: ArrayLike, speed: float,
                       offsets: tuple[float, ...], rates: bool = True
                       ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -386,32 +482,46 @@ def wheel_road_inputs(road: RoadProfile, t: ArrayLike, speed: float,
 
 
 class RoadInputComp(om.ExplicitComponent):
-    """Road displacement under the front and rear wheel, ``δ_1(t)``, ``δ_2(t)`` (SPEC §4)."""
+    """Road height under every wheel, ``δ_c(t) = r_track(c)(v t - offset_c)`` (SPEC §4), an
+    output of shape (num_nodes, corners).
+
+    The node times are fixed in a study (fixed horizon), so the heights and their time
+    derivatives are computed once per distinct time input and then reused."""
 
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
-        self.options.declare('road', types=RoadProfile, desc='road profile r(s)')
+        self.options.declare('tracks', types=tuple, desc='road profile of each wheel track')
         self.options.declare('speed', types=float, desc='vehicle speed [m/s]')
         self.options.declare('offsets', types=tuple,
-                             desc='distance of each wheel behind the front wheel [m]')
+                             desc='distance of each wheel behind the front axle [m]')
+        self.options.declare('track_of', types=tuple, desc='wheel track of each corner')
 
     def setup(self) -> None:
-        nn = self.options['num_nodes']
-        ar = np.arange(nn)
+        nn, nc = self.options['num_nodes'], len(self.options['offsets'])
         self.add_input('time', shape=(nn,), units='s')
-        for i in range(len(self.options['offsets'])):
-            self.add_output(f'delta_{i + 1}', shape=(nn,), units='m',
-                            desc=f'road height under wheel {i + 1}')
-            self.declare_partials(f'delta_{i + 1}', 'time', rows=ar, cols=ar)
+        self.add_output('delta', shape=(nn, nc), units='m', desc='road height under each wheel')
+        self.declare_partials('delta', 'time', rows=np.arange(nn * nc),
+                              cols=np.repeat(np.arange(nn), nc))
+        self._memo: tuple[bytes, np.ndarray, np.ndarray] | None = None
+
+    def heights(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Heights and rates (num_nodes, corners) at node times ``t``."""
+        key = np.ascontiguousarray(t).tobytes()
+        if self._memo is None or self._memo[0] != key:
+            o = self.options
+            h = np.empty((t.size, len(o['offsets'])))
+            dh = np.empty_like(h)
+            for k, road in enumerate(o['tracks']):
+                cols = [c for c, tr in enumerate(o['track_of']) if tr == k]
+                if cols:
+                    hk, dk = wheel_road_inputs(road, t, o['speed'],
+                                               tuple(o['offsets'][c] for c in cols))
+                    h[:, cols], dh[:, cols] = hk.T, dk.T
+            self._memo = (key, h, dh)
+        return self._memo[1], self._memo[2]
 
     def compute(self, inputs, outputs) -> None:
-        h, _ = wheel_road_inputs(self.options['road'], inputs['time'], self.options['speed'],
-                                 self.options['offsets'])
-        for i in range(h.shape[0]):
-            outputs[f'delta_{i + 1}'] = h[i]
+        outputs['delta'] = self.heights(inputs['time'])[0]
 
     def compute_partials(self, inputs, partials) -> None:
-        _, dh = wheel_road_inputs(self.options['road'], inputs['time'], self.options['speed'],
-                                  self.options['offsets'])
-        for i in range(dh.shape[0]):
-            partials[f'delta_{i + 1}', 'time'] = dh[i]
+        partials['delta', 'time'] = self.heights(inputs['time'])[1].ravel()

@@ -9,94 +9,131 @@ These are the operations of the command line, as a Python API:
   mixed-fidelity optimum from there; every design evaluated in both models; the
   paper's Table 4 and Figures 3-5 and more, written to a directory as it goes.
 
-Results are plain dictionaries (JSON-ready). Every function takes the study
-description, so many can run side by side in separate processes.
+Every collocation result is **verified** by time marching (:func:`time_marching_check`, on
+by default):
+its record carries ``verification`` with ``verified`` true or false (collocation and time
+marching agree on every weighted objective term within :data:`VERIFY_TOLERANCE`), or says
+the check was skipped. Results are plain dictionaries (JSON-ready,
+:func:`suspopt.results.result_record`); every function takes the study description, so
+many can run side by side in separate processes.
 """
 from __future__ import annotations
 
-import json
 import math
-import os
-import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
-from suspopt.config import DESIGN_NAMES, PAPER_SCALES, StudyConfig
+from suspopt.config import PAPER_SCALES, StudyConfig
 from suspopt.driver import IterationInfo
-from suspopt.errors import ConfigError, ModelError
-from suspopt.problem import SolveResult, VehicleProblem
-from suspopt.timemarching import Trajectory, reference_scales, simulate
+from suspopt.errors import ModelError
+from suspopt.results import RunDirectory, write_json
+from suspopt.timemarching import reference_scales, simulate
+from suspopt.trajectory import Trajectory
+from suspopt.transcription.problem import Scales, SolveResult, VehicleProblem
 
 Progress = Callable[[IterationInfo], None]
 #: a constraint violation (IPOPT's inf_pr, scaled) below which an iterate counts as feasible
 FEASIBLE = 1e-6
+#: collocation and time marching must agree this well on every weighted J_k (relative)
+VERIFY_TOLERANCE = 5e-3
 
 
-def resolve_scales(config: StudyConfig) -> tuple[float, float, float, float]:
-    """Normalization ``s_k`` of SPEC §5 for this study."""
-    norm = config.objective.normalization
+def resolve_scales(config: StudyConfig) -> Scales:
+    """Normalization ``s_k`` of SPEC §5, one table per scenario."""
+    norm, n = config.objective.normalization, len(config.scenarios())
     if norm == 'reference':
         return reference_scales(config)
     if norm == 'paper':
-        return PAPER_SCALES
-    return tuple(config.objective.scales)  # custom
+        return (dict(PAPER_SCALES),) * n
+    return (dict(config.objective.scales),) * n  # custom
 
 
-def write_json(path: str | Path, data: Any) -> None:
-    """Write JSON atomically: a reader never sees a half-written file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
-    try:
-        with os.fdopen(fd, 'w') as fh:
-            json.dump(data, fh, indent=2, default=_json_default)
-            fh.write('\n')
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
-
-
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    raise TypeError(f'not JSON serializable: {type(obj).__name__}')
-
-
-def prepare_out_dir(path: str | Path, overwrite: bool = False) -> Path:
-    """Create the output directory; refuse a non-empty existing one unless ``overwrite``."""
-    path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise ConfigError(f'--out: {path} exists and is not a directory')
-    if path.is_dir() and any(path.iterdir()) and not overwrite:
-        raise ConfigError(f'--out: {path} already contains results; choose another directory '
-                          'or pass --overwrite')
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def _terms(J) -> dict[str, float]:
-    return {f'J{k + 1}': float(v) for k, v in enumerate(J)}
-
-
-def _scales(s) -> dict[str, float]:
-    return {f's{k + 1}': float(v) for k, v in enumerate(s)}
-
-
-def objective_value(config: StudyConfig, J, scales) -> float:
+def objective_value(config: StudyConfig, terms: dict[str, float],
+                    scales: dict[str, float]) -> float:
     """``f = Σ w_k J_k / s_k`` (eq. 4, SPEC §5) — for results computed outside the NLP."""
-    return float(np.sum(np.asarray(config.objective.weights) * np.asarray(J)
-                        / np.asarray(scales)))
+    w = config.objective.weights
+    return float(sum(w[t] * terms[t] / scales[t] for t in config.terms()))
 
 
-def result_dict(config: StudyConfig, res: SolveResult, wall: float, start: dict[str, float],
-                mode: str) -> dict[str, Any]:
-    """The result record of one IPOPT solve (the keys of ``result.json``)."""
+def combine(config: StudyConfig, scenario_objectives: list[float]) -> float:
+    """The scenarios' objectives combined as the NLP does (Σ w_s f_s, or the worst case)."""
+    if config.objective.aggregate == 'max' and len(scenario_objectives) > 1:
+        return max(scenario_objectives)
+    return float(sum(sc.weight * f for sc, f in zip(config.scenarios(), scenario_objectives)))
+
+
+def initial_guess(config: StudyConfig, fidelity: str,
+                  design: dict[str, float]) -> list[Trajectory | None]:
+    """The collocation's starting trajectory of every scenario, or None for the zero guess
+    (``transcription.initial_guess``).
+
+    ``simulate`` is the low-fidelity model's time marching at ``design`` for both
+    fidelities: the states are the same quantities, and from the low-fidelity optimum the
+    mixed-fidelity solve takes as many IPOPT iterations from this start as from the mixed
+    model's own time marching, which costs ten times more. ``auto`` (default) starts the
+    low-fidelity model from zero instead: it is linear in its states, so IPOPT's first step
+    solves its collocation equations whatever the start, and simulates for the nonlinear
+    mixed model.
+    """
+    mode = config.transcription.initial_guess
+    if mode == 'zero' or (mode == 'auto' and fidelity == 'low'):
+        return [None] * len(config.scenarios())
+    # a starting point only: the collocation error (~1e-4) is far above these tolerances
+    return [simulate(config, 'low', design, scenario=i, rtol=1e-3, atol=1e-6)
+            for i in range(len(config.scenarios()))]
+
+
+def time_marching_check(config: StudyConfig, fidelity: str, design: dict[str, float],
+           terms: list[dict[str, float]], scales: Scales, *, modules: dict | None = None,
+           keep: bool = False) -> dict[str, Any]:
+    """Time-march ``design`` in every scenario and compare with the collocation's terms:
+    ``verified`` if every term with a nonzero weight agrees within
+    :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories (2001 points) are
+    returned under ``'trajectories'`` (not JSON)."""
+    t0 = time.perf_counter()
+    weights = config.objective.weights
+    out: dict[str, Any] = {'method': 'time-marching (SciPy DOP853, rtol 1e-8)',
+                           'tolerance': VERIFY_TOLERANCE, 'scenarios': []}
+    trajs = []
+    worst = 0.0
+    for i, sc in enumerate(config.scenarios()):
+        tr = simulate(config, fidelity, design, scenario=i, modules=modules,
+                      t_eval=None if keep else np.array([0.0, sc.horizon]))
+        tm = dict(zip(config.terms(), (float(x) for x in tr.J)))
+        diffs = {t: abs(terms[i][t] / tm[t] - 1.0) if tm[t] != 0.0 else
+                 (0.0 if terms[i][t] == 0.0 else math.inf)
+                 for t in config.terms() if weights[t] > 0.0}
+        worst_term = max(diffs, key=diffs.get)
+        worst = max(worst, diffs[worst_term])
+        rec = {'name': sc.name, 'terms': tm, 'objective': objective_value(config, tm, scales[i]),
+               'max_rel_diff': diffs[worst_term], 'worst_term': worst_term,
+               'wall_time_s': tr.info['wall_time_s']}
+        if fidelity == 'mixed':
+            rec['max_constraint_residual_m'] = tr.info['max_constraint_residual_m']
+        out['scenarios'].append(rec)
+        trajs.append(tr)
+    out['objective'] = combine(config, [s['objective'] for s in out['scenarios']])
+    out['max_rel_diff'] = worst
+    out['verified'] = bool(worst <= VERIFY_TOLERANCE)
+    out['time_s'] = time.perf_counter() - t0
+    if keep:
+        out['trajectories'] = trajs
+    return out
+
+
+def skipped_verification() -> dict[str, Any]:
+    return {'verified': None, 'skipped': True,
+            'note': 'time-marching verification skipped (--no-verify): this result is '
+                    'not checked'}
+
+
+def result_record(config: StudyConfig, res: SolveResult, *, mode: str,
+                  start: dict[str, float], wall: float,
+                  verification: dict[str, Any] | None) -> dict[str, Any]:
+    """The record of one IPOPT solve (the keys of ``result.json``)."""
     best = None
     feas = [h for h in res.history if h.constraint_violation <= FEASIBLE]
     if feas:
@@ -105,19 +142,25 @@ def result_dict(config: StudyConfig, res: SolveResult, wall: float, start: dict[
                 'constraint_violation': b.constraint_violation,
                 'design': {k.rsplit(':', 1)[-1]: v for k, v in b.design.items()}}
     last = res.history[-1] if res.history else None
-    return {
+    scenarios = config.scenarios()
+    out = {
         'fidelity': res.fidelity, 'mode': mode, 'method': 'collocation',
-        'design': res.design, 'objective': res.objective, 'terms': _terms(res.terms),
-        'scales': _scales(res.scales), 'normalization': config.objective.normalization,
-        'weights': list(config.objective.weights),
+        'design': res.design, 'objective': res.objective if res.success else None,
+        'terms': res.terms[0], 'scales': res.scales[0],
+        'scenarios': [{'name': sc.name, 'weight': sc.weight, 'objective': f, 'terms': J,
+                       'scales': s, 'grid': {'segments': sc.segments, 'order': sc.order}}
+                      for sc, f, J, s in zip(scenarios, res.scenario_objectives, res.terms,
+                                             res.scales)],
+        'normalization': config.objective.normalization,
+        'weights': dict(config.objective.weights), 'aggregate': config.objective.aggregate,
         'success': res.success, 'status': res.status, 'message': res.message,
+        'interrupted': res.interrupted,
         'iterations': res.iterations, 'wall_time_s': wall,
         'times': res.times, 'coloring_from_cache': res.coloring_from_cache,
         'function_evaluations': res.function_evaluations,
         'gradient_evaluations': res.gradient_evaluations,
         'multibody_calls': res.multibody_calls,
-        'grid': {'segments': config.transcription.segments,
-                 'order': config.transcription.order},
+        'grid': {'segments': scenarios[0].segments, 'order': scenarios[0].order},
         'start': start,
         'last_iterate': None if last is None else {
             'iteration': last.iteration, 'objective': last.objective,
@@ -126,49 +169,54 @@ def result_dict(config: StudyConfig, res: SolveResult, wall: float, start: dict[
         'history': [{'iteration': h.iteration, 'objective': h.objective,
                      'constraint_violation': h.constraint_violation,
                      'elapsed_s': h.elapsed_s} for h in res.history],
+        'verification': verification,
     }
+    if not res.success:  # never a plain number for a failed solve
+        out['objective_at_stop'] = res.objective
+    return out
 
 
-def initial_guess(config: StudyConfig, fidelity: str,
-                  design: dict[str, float]) -> Trajectory | None:
-    """The collocation's starting trajectory for a model of ``fidelity``, or None for the
-    zero guess (``transcription.initial_guess``).
+def verified(record: dict[str, Any]) -> bool | None:
+    """True/False: the record's verification; None: skipped or not applicable."""
+    v = record.get('verification')
+    return None if not v else v.get('verified')
 
-    ``simulate`` is the half car's time marching at ``design`` for both fidelities: the
-    states are the same quantities, and from the low-fidelity optimum the mixed-fidelity
-    solve takes as many IPOPT iterations from this start as from the mixed model's own time
-    marching, which costs ten times more. ``auto`` (default) starts the half car from zero
-    instead: it is linear in its states, so IPOPT's first step solves its collocation
-    equations exactly whatever the start (measured: 9 iterations from zero, 10 from time
-    marching, which costs 0.08 s), and simulates for the nonlinear mixed model (15
-    iterations, 1.8 s, against 16 and 4.7 s from zero).
-    """
-    mode = config.transcription.initial_guess
-    if mode == 'zero' or (mode == 'auto' and fidelity == 'low'):
-        return None
-    # a starting point only: the collocation error (~1e-4) is far above these tolerances
-    return simulate(config, 'low', design, rtol=1e-3, atol=1e-6)
+
+def _attach_verification(config, fidelity, record, scales, problem, do_verify, keep=False):
+    if not record['success']:
+        record['verification'] = {'verified': None, 'note': 'not verified: the solve failed'}
+    elif do_verify:
+        record['verification'] = time_marching_check(
+            config, fidelity, record['design'],
+            [s['terms'] for s in record['scenarios']], scales,
+            modules=problem.modules or None, keep=keep)
+    else:
+        record['verification'] = skipped_verification()
+    record['verified'] = verified(record)
+    return record
 
 
 def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | None = None,
-             scales: tuple[float, ...] | None = None, out_dir: str | Path | None = None,
-             progress: Progress | None = None,
-             problem: VehicleProblem | None = None,
-             guess: Trajectory | None | str = 'auto',
-             label: str | None = None) -> dict[str, Any]:
+             scales: Scales | None = None, out_dir: str | Path | None = None,
+             progress: Progress | None = None, problem: VehicleProblem | None = None,
+             guess: list | str | None = 'auto', label: str | None = None,
+             verify: bool = True) -> dict[str, Any]:
     """Optimize the design of one model (SPEC §1) from ``start`` (default: the configured
-    initial design). Writes ``result.json`` and the SQLite case recorder ``cases.sql`` to
-    ``out_dir`` if given. ``problem`` reuses an already built problem of this fidelity (with
-    this config's weights); ``label`` names the optimum's case in its recorder (default
-    ``'<fidelity>_optimum'``). Returns the result dictionary; ``success`` tells whether
-    IPOPT converged."""
+    initial design) and verify the optimum by time marching. Writes ``result.json`` (first
+    right after IPOPT, so an interrupt during the verification loses nothing) and the case
+    recorder ``cases.sql`` to ``out_dir`` if given. ``problem`` reuses an already built
+    problem of this fidelity; ``label`` names the optimum's case in its recorder (default
+    ``'<fidelity>_optimum'``). Returns the result record; ``success`` tells whether IPOPT
+    converged, ``verified`` whether time marching confirms it. An interrupted solve is
+    written and then raises KeyboardInterrupt."""
     t0 = time.perf_counter()
     start = dict(config.design.initial() if start is None else start)
     scales = resolve_scales(config) if scales is None else scales
     own = problem is None
+    out = Path(out_dir) if out_dir is not None else None
     if own:
-        recorder = None if out_dir is None else Path(out_dir) / 'cases.sql'
-        problem = VehicleProblem(config, fidelity, scales, recorder=recorder, progress=progress)
+        problem = VehicleProblem(config, fidelity, scales, progress=progress,
+                                 recorder=None if out is None else out / 'cases.sql')
     try:
         problem.set_weights(config.objective.weights)
         problem.set_design(start)
@@ -178,47 +226,62 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
             problem.set_initial_guess(guess)
         res = problem.solve(optimize=True)
         problem.record(label or f'{fidelity}_optimum')
+        record = result_record(config, res, mode='optimize', start=start,
+                               wall=time.perf_counter() - t0, verification=None)
+        if out is not None:
+            write_json(out / 'result.json', {**record, 'config': config.to_dict()})
+        if res.interrupted:
+            raise KeyboardInterrupt
+        _attach_verification(config, fidelity, record, scales, problem, verify)
+        record['wall_time_s'] = time.perf_counter() - t0
     except ModelError as err:
-        if out_dir is not None:  # what failed, where, is part of the results
-            write_json(Path(out_dir) / 'result.json', {
+        if out is not None:  # what failed, where, is part of the results
+            write_json(out / 'result.json', {
                 'fidelity': fidelity, 'mode': 'optimize', 'method': 'collocation',
                 'design': start, 'start': start, 'objective': None, 'success': False,
                 'status': 'Model_Error', 'message': str(err), 'iterations': 0,
-                'scales': _scales(scales), 'normalization': config.objective.normalization,
+                'verified': None, 'normalization': config.objective.normalization,
                 'wall_time_s': time.perf_counter() - t0, 'config': config.to_dict()})
         raise
     finally:
         if own:
             problem.cleanup()
-    out = result_dict(config, res, time.perf_counter() - t0, start, 'optimize')
-    if out_dir is not None:  # with its study description: the file is self-contained
-        write_json(Path(out_dir) / 'result.json', {**out, 'config': config.to_dict()})
-    return out
+    if out is not None:  # with its study description: the file is self-contained
+        write_json(out / 'result.json', {**record, 'config': config.to_dict()})
+    return record
 
 
 def evaluate(config: StudyConfig, fidelity: str, design: dict[str, float] | None = None, *,
-             method: str = 'collocation', scales: tuple[float, ...] | None = None,
+             method: str = 'collocation', scales: Scales | None = None,
              problem: VehicleProblem | None = None, label: str | None = None,
-             guess: Trajectory | None | str = 'auto') -> dict[str, Any]:
+             guess: list | str | None = 'auto', verify: bool = True,
+             keep_trajectories: bool = False) -> dict[str, Any]:
     """Evaluate one design in one model without optimizing.
 
     ``method='collocation'`` solves the collocation equations on the configured grid
-    (IPOPT with the design held); ``'time-marching'`` integrates with SciPy's adaptive
-    DOP853 instead (independent of the grid). Returns the same keys as :func:`optimize`.
-    """
+    (IPOPT with the design held), verified by time marching; ``'time-marching'``
+    integrates with SciPy's adaptive DOP853 instead (independent of the grid). Returns the
+    same keys as :func:`optimize`."""
     t0 = time.perf_counter()
     design = dict(config.design.initial() if design is None else design)
     scales = resolve_scales(config) if scales is None else scales
     if method == 'time-marching':
-        traj = simulate(config, fidelity, design)
+        v = time_marching_check(config, fidelity, design,
+                                [dict.fromkeys(config.terms(), 0.0)] * len(scales), scales,
+                                modules=problem.modules if problem else None)
+        sc = v['scenarios']
         return {'fidelity': fidelity, 'mode': 'evaluate', 'method': method, 'design': design,
-                'objective': objective_value(config, traj.J, scales),
-                'terms': _terms(traj.J), 'scales': _scales(scales),
+                'objective': v['objective'], 'terms': sc[0]['terms'], 'scales': scales[0],
+                'scenarios': [{'name': s['name'], 'objective': s['objective'],
+                               'terms': s['terms'], 'scales': sc_scales}
+                              for s, sc_scales in zip(sc, scales)],
                 'normalization': config.objective.normalization,
                 'success': True, 'status': 'integrated', 'iterations': None,
+                'verified': None, 'verification': {'verified': None,
+                                                   'note': 'this is the time marching'},
                 'wall_time_s': time.perf_counter() - t0,
-                'rhs_evaluations': traj.info['rhs_evaluations'],
-                **({'max_constraint_residual_m': traj.info['max_constraint_residual_m']}
+                **({'max_constraint_residual_m': max(s['max_constraint_residual_m']
+                                                     for s in sc)}
                    if fidelity == 'mixed' else {})}
     if method != 'collocation':
         raise ValueError(f"method must be 'collocation' or 'time-marching', got {method!r}")
@@ -236,132 +299,28 @@ def evaluate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
         if label:
             problem.record(label)
         traj = problem.timeseries()
+        if res.interrupted:
+            raise KeyboardInterrupt
+        record = result_record(config, res, mode='evaluate', start=design,
+                               wall=time.perf_counter() - t0, verification=None)
+        _attach_verification(config, fidelity, record, scales, problem, verify,
+                             keep=keep_trajectories)
     finally:
         if own:
             problem.cleanup()
-    out = result_dict(config, res, time.perf_counter() - t0, design, 'evaluate')
     if fidelity == 'mixed':
-        out['max_constraint_residual_m'] = traj.info['max_constraint_residual_m']
-    return out
+        record['max_constraint_residual_m'] = traj.info['max_constraint_residual_m']
+    record['wall_time_s'] = time.perf_counter() - t0
+    return record
 
 
 # ---------------------------------------------------------------------------- the study
 STUDY_DESIGNS = ('initial', 'low_optimum', 'mixed_optimum')
-#: collocation and time marching further apart than this on some J_k: the grid is too
-#: coarse for this car and road (SPEC §6 asks 0.1 % of the default grid on the default
-#: road; the mixed model's lightly damped wheel hop is harder, issue 4 asks 0.5 %)
-GRID_WARNING = 5e-3
 
 
-def run_study(config: StudyConfig, out_dir: str | Path, *, progress: Progress | None = None,
-              log: Callable[[str], None] | None = None, verify: bool = True) -> dict[str, Any]:
-    """The two-step study of SPEC §7, written to ``out_dir`` as it goes.
+class StepFailed(Exception):
+    """A step of the study did not converge (its partial results are written)."""
 
-    1. low-fidelity optimization from the initial design;
-    2. mixed-fidelity optimization from the step-1 optimum;
-    then each of the three designs evaluated in both models by collocation and (with
-    ``verify``) by time marching. Writes ``study.json`` (updated after every step),
-    ``table.md``, the case recorders ``low.sql`` and ``mixed.sql`` (every IPOPT iterate's
-    design and objective, and the full trajectories of every design in each model),
-    ``time_marching.npz`` and the figures in ``figures/``. Returns the study dictionary.
-    """
-    from suspopt import report  # matplotlib only when figures are drawn
-
-    out = Path(out_dir)
-    say = log or (lambda msg: None)
-    t_start = time.perf_counter()
-    scales = resolve_scales(config)
-    study: dict[str, Any] = {
-        'config': config.to_dict(), 'scales': _scales(scales),
-        'normalization': config.objective.normalization, 'steps': {}, 'evaluations': {},
-        'time_marching': {}, 'complete': False,
-    }
-    save = lambda: write_json(out / 'study.json', study)  # noqa: E731
-    save()
-    designs = {'initial': config.design.initial()}
-    problems: dict[str, VehicleProblem] = {}
-    try:
-        for fid in ('low', 'mixed'):
-            problems[fid] = VehicleProblem(config, fid, scales, recorder=out / f'{fid}.sql',
-                                           progress=progress)
-        low, mixed = problems['low'], problems['mixed']
-
-        def step(fid: str, start: str, result: str, guess: Trajectory | None) -> None:
-            """Evaluate model ``fid`` at design ``start``, optimize it from there (same
-            problem, IPOPT starting from that collocation solution), record, save."""
-            study['evaluations'][f'{fid}/{start}'] = evaluate(
-                config, fid, designs[start], scales=scales, problem=problems[fid],
-                label=start, guess=guess)
-            res = optimize(config, fid, start=designs[start], scales=scales,
-                           problem=problems[fid], guess='keep')
-            study['steps'][fid] = res
-            designs[result] = res['design']
-            study['evaluations'][f'{fid}/{result}'] = _as_evaluation(res)
-            save()
-            if not res['success']:
-                raise _StepFailed(fid, res)
-
-        say('step 1/2: low-fidelity model at the initial design (evaluation), then its '
-            'optimization from there')
-        step('low', 'initial', 'low_optimum',
-             initial_guess(config, 'low', designs['initial']))
-        say('step 2/2: mixed-fidelity model at the low-fidelity optimum (evaluation), then '
-            'its optimization from there')
-        step('mixed', 'low_optimum', 'mixed_optimum', low.timeseries())
-
-        say('evaluating every design in both models (IPOPT solves the collocation '
-            'equations with the design held)')
-        study['evaluations']['mixed/initial'] = evaluate(
-            config, 'mixed', designs['initial'], scales=scales, problem=mixed, label='initial',
-            guess=_recorded_trajectory(low, 'initial'))
-        study['evaluations']['low/mixed_optimum'] = evaluate(
-            config, 'low', designs['mixed_optimum'], scales=scales, problem=low,
-            label='mixed_optimum', guess=mixed.timeseries())
-        study['designs'] = designs
-        save()
-
-        if verify:
-            say('verifying every collocation result by time marching')
-            arrays = {}
-            for fid in ('low', 'mixed'):
-                for name in STUDY_DESIGNS:
-                    tr = simulate(config, fid, designs[name])
-                    coll = study['evaluations'][f'{fid}/{name}']['terms']
-                    study['time_marching'][f'{fid}/{name}'] = {
-                        'objective': objective_value(config, tr.J, scales),
-                        'terms': _terms(tr.J),
-                        'max_rel_diff_collocation': max(
-                            abs(coll[k] / v - 1.0) for k, v in _terms(tr.J).items()),
-                        'wall_time_s': tr.info['wall_time_s'],
-                        **({'max_constraint_residual_m': tr.info['max_constraint_residual_m']}
-                           if fid == 'mixed' else {})}
-                    for key in ('zdd_C', 'thdd_C', 'wheel_z1', 'wheel_z2'):
-                        arrays[f'{fid}/{name}/{key}'] = tr[key]
-                    arrays[f'{fid}/{name}/t'] = tr.t
-            np.savez_compressed(out / 'time_marching.npz', **arrays)
-            worst = max(study['time_marching'].items(),
-                        key=lambda kv: kv[1]['max_rel_diff_collocation'])
-            if worst[1]['max_rel_diff_collocation'] > GRID_WARNING:
-                msg = (f"collocation differs from time marching by "
-                       f"{100 * worst[1]['max_rel_diff_collocation']:.2g} % on some J_k "
-                       f"({worst[0]}): the {config.transcription.segments} x "
-                       f"{config.transcription.order} grid is too coarse for this car and "
-                       'road; more --segments')
-                study.setdefault('warnings', []).append(msg)
-                say(f'warning: {msg}')
-        study['problems'] = {fid: prob.stats() for fid, prob in problems.items()}
-        study['wall_time_s'] = time.perf_counter() - t_start
-        study['complete'] = True
-        save()
-        say('writing table and figures')
-        report.render(out)
-    finally:
-        for prob in problems.values():
-            prob.cleanup()
-    return study
-
-
-class _StepFailed(Exception):
     def __init__(self, fidelity: str, result: dict[str, Any]):
         self.fidelity, self.result = fidelity, result
         last = result.get('last_iterate') or {}
@@ -372,19 +331,122 @@ class _StepFailed(Exception):
             f'{last.get("constraint_violation", math.nan):.3g})')
 
 
-StepFailed = _StepFailed
+def _strip(record: dict[str, Any]) -> tuple[dict[str, Any], list[Trajectory]]:
+    """A record without its (non-JSON) kept trajectories."""
+    v = record.get('verification') or {}
+    trajs = v.pop('trajectories', [])
+    return record, trajs
 
 
-def _as_evaluation(step: dict[str, Any]) -> dict[str, Any]:
-    """The evaluation record of an optimum (its own model, the same collocation solve)."""
-    keys = ('fidelity', 'method', 'design', 'objective', 'terms', 'scales', 'success',
-            'status')
-    return {**{k: step[k] for k in keys}, 'mode': 'optimize'}
+def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
+              progress: Progress | None = None, log: Callable[[str], None] | None = None,
+              verify: bool = True) -> dict[str, Any]:
+    """The two-step study of SPEC §7, written to ``out_dir`` as it goes.
 
+    1. low-fidelity optimization from the initial design;
+    2. mixed-fidelity optimization from the step-1 optimum;
+    then each of the three designs evaluated in both models by collocation, each verified
+    (with ``verify``) by time marching. Writes ``study.json`` (after every step),
+    ``table.md``, the case recorders ``low.sql`` and ``mixed.sql`` (the full trajectories
+    of every design in each model), ``time_marching.npz`` and the figures in
+    ``figures/``. Returns the study dictionary."""
+    from suspopt import report  # matplotlib only when figures are drawn
 
-def _recorded_trajectory(problem: VehicleProblem, label: str) -> Trajectory | None:
-    """A trajectory recorded earlier in ``problem``'s case recorder (as initial guess)."""
-    from suspopt.report import read_trajectory
-    if problem.recorder_path is None:
-        return None
-    return read_trajectory(problem.recorder_path, label)
+    out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
+    say = log or (lambda msg: None)
+    t_start = time.perf_counter()
+    scales = resolve_scales(config)
+    config_dict = out_dir.keep_inputs(config.to_dict()) if isinstance(out_dir, RunDirectory) \
+        else config.to_dict()
+    study: dict[str, Any] = {
+        'config': config_dict, 'scales': list(scales), 'terms': list(config.terms()),
+        'design_names': list(config.design_names()),
+        'normalization': config.objective.normalization, 'steps': {}, 'evaluations': {},
+        'complete': False, 'verify': verify,
+    }
+    save = lambda: write_json(out / 'study.json', study)  # noqa: E731
+    save()
+    designs = {'initial': config.design.initial()}
+    problems: dict[str, VehicleProblem] = {}
+    arrays: dict[str, np.ndarray] = {}
+
+    def keep(fid: str, name: str, record: dict[str, Any]) -> dict[str, Any]:
+        record, trajs = _strip(record)
+        for i, tr in enumerate(trajs[:1]):
+            for key in ('zdd_C', 'thdd_C', 'phidd_C', 'wheel_z'):
+                if key in tr.values:
+                    arrays[f'{fid}/{name}/{key}'] = tr[key]
+            arrays[f'{fid}/{name}/t'] = tr.t
+        study['evaluations'][f'{fid}/{name}'] = record
+        save()
+        return record
+
+    try:
+        for fid in ('low', 'mixed'):
+            problems[fid] = VehicleProblem(config, fid, scales, recorder=out / f'{fid}.sql',
+                                           progress=progress)
+        low, mixed = problems['low'], problems['mixed']
+
+        def step(fid: str, start: str, result: str, guess) -> None:
+            """Evaluate model ``fid`` at design ``start``, optimize it from there (same
+            problem, IPOPT starting from that collocation solution), verify, record, save."""
+            keep(fid, start, evaluate(config, fid, designs[start], scales=scales,
+                                      problem=problems[fid], label=start, guess=guess,
+                                      verify=verify, keep_trajectories=True))
+            res = optimize(config, fid, start=designs[start], scales=scales,
+                           problem=problems[fid], guess='keep', label=result, verify=False)
+            study['steps'][fid] = res
+            designs[result] = res['design']
+            save()
+            if not res['success']:
+                raise StepFailed(fid, res)
+            ev = dict(res, mode='optimize')
+            _attach_verification(config, fid, ev, scales, problems[fid], verify, keep=True)
+            study['steps'][fid]['verification'] = {k: v for k, v in ev['verification'].items()
+                                                   if k != 'trajectories'}
+            study['steps'][fid]['verified'] = ev['verified']
+            keep(fid, result, ev)
+
+        say('step 1/2: low-fidelity model at the initial design (evaluation), then its '
+            'optimization from there')
+        step('low', 'initial', 'low_optimum', initial_guess(config, 'low', designs['initial']))
+        say('step 2/2: mixed-fidelity model at the low-fidelity optimum (evaluation), then '
+            'its optimization from there')
+        step('mixed', 'low_optimum', 'mixed_optimum',
+             [low.timeseries(i) for i in range(len(low.scenarios))])
+
+        say('evaluating every design in both models (IPOPT solves the collocation '
+            'equations with the design held)')
+        keep('mixed', 'initial', evaluate(config, 'mixed', designs['initial'], scales=scales,
+                                          problem=mixed, label='initial', verify=verify,
+                                          keep_trajectories=True))
+        keep('low', 'mixed_optimum', evaluate(
+            config, 'low', designs['mixed_optimum'], scales=scales, problem=low,
+            label='mixed_optimum', guess=[mixed.timeseries(i)
+                                          for i in range(len(mixed.scenarios))],
+            verify=verify, keep_trajectories=True))
+        study['designs'] = designs
+        if arrays:
+            np.savez_compressed(out / 'time_marching.npz', **arrays)
+        unverified = [k for k, e in study['evaluations'].items() if verified(e) is False]
+        if unverified:
+            worst = max(unverified, key=lambda k: study['evaluations'][k]['verification'][
+                'max_rel_diff'])
+            v = study['evaluations'][worst]['verification']
+            study.setdefault('warnings', []).append(
+                f"not verified: collocation and time marching differ by "
+                f"{100 * v['max_rel_diff']:.2g} % on {v['scenarios'][0]['worst_term']} "
+                f"({worst}; tolerance {100 * VERIFY_TOLERANCE:g} %): the grid is too coarse "
+                'for this car and road; more --segments or segments = "auto"')
+            say(f"warning: {study['warnings'][-1]}")
+        study['verified'] = None if not verify else not unverified
+        study['problems'] = {fid: prob.stats() for fid, prob in problems.items()}
+        study['wall_time_s'] = time.perf_counter() - t_start
+        study['complete'] = True
+        save()
+        say('writing table and figures')
+        report.render(out)
+    finally:
+        for prob in problems.values():
+            prob.cleanup()
+    return study

@@ -4,8 +4,8 @@ This is the reference the collocation is checked against (paper §4.2, SPEC §5-
 the source of the ``reference`` normalization. It integrates the same equations
 (:mod:`suspopt.models.equations`, :class:`~suspopt.multibody.suspension.SuspensionModule`)
 with an adaptive explicit Runge-Kutta method (DOP853), stopping at every time where the
-road's second derivative jumps under either wheel so the high order is kept. The
-objective integrals are integrated as extra states, exactly as in the collocation.
+road's second derivative jumps under a wheel so the high order is kept. The objective
+integrals are integrated as extra states.
 
 In the mixed-fidelity model the multibody constraints are kept exactly (coordinate
 partitioning): at every right-hand-side evaluation the dependent coordinates are solved
@@ -15,162 +15,197 @@ accelerations. The largest constraint residual seen is reported.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from suspopt.config import DESIGN_NAMES, StudyConfig
-from suspopt.errors import ConfigError, ModelError
+from suspopt.config import ConfigError, Scenario, StudyConfig
+from suspopt.errors import ModelError
 from suspopt.models import equations as eq
-from suspopt.multibody.suspension import SuspensionModule
-from suspopt.road import wheel_road_inputs
-
-#: State vector of both models: chassis, front and rear wheel travel, objective integrals.
-STATES = ('z_C', 'v_C', 'theta_C', 'omega_C', 'z_W1', 'v_W1', 'z_W2', 'v_W2',
-          'J1', 'J2', 'J3', 'J4')
-
-
-@dataclass
-class Trajectory:
-    """A time history: ``t`` [s] and named arrays of the same length, plus ``J`` at ``T``."""
-
-    t: np.ndarray
-    values: dict[str, np.ndarray]
-    J: np.ndarray
-    info: dict[str, Any] = field(default_factory=dict)
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.values[name]
+from suspopt.models.settings import corner_of_design
+from suspopt.road import road_tracks
+from suspopt.trajectory import Trajectory
+from suspopt.transcription.problem import Scales, multibody_modules
 
 
 class VehicleRHS:
-    """Right-hand side ``dy/dt`` of the half car (``fidelity='low'``) or the mixed-fidelity
-    model (``'mixed'``), for one design. Also returns every intermediate signal."""
+    """Right-hand side ``dy/dt`` of the low- or mixed-fidelity model of one scenario, for
+    one design; :meth:`signals` also returns every intermediate signal.
+
+    State vector: the chassis states (``z_C, v_C, theta_C, omega_C`` [, ``phi_C, p_C``]),
+    every wheel's travel ``z_W`` then its rate ``v_W``, then the objective integrals."""
 
     def __init__(self, config: StudyConfig, fidelity: str, design: dict[str, float],
-                 modules: tuple[SuspensionModule, SuspensionModule] | None = None):
+                 scenario: Scenario, modules: dict | None = None):
         if fidelity not in ('low', 'mixed'):
             raise ValueError(f"fidelity must be 'low' or 'mixed', got {fidelity!r}")
         v = config.vehicle
-        self.fidelity = fidelity
-        self.road = config.road_profile()
-        self.speed = config.maneuver.speed
-        self.offsets = (0.0, v.wheelbase)
-        self.M, self.I = v.chassis_mass, v.chassis_pitch_inertia
-        self.a = (v.front.axle_position, v.rear.axle_position)
-        self.m = (v.front.wheel_mass, v.rear.wheel_mass)
-        self.k_T = (v.front.tyre_stiffness, v.rear.tyre_stiffness)
-        self.k_S = (design['k_S1'], design['k_S2'])
-        self.c_S = (design['c_S1'], design['c_S2'])
+        lay = self.layout = v.layout()
+        self.fidelity, self.scenario = fidelity, scenario
+        self.nc, self.roll = lay.n, lay.has_roll
+        self.nch = 6 if self.roll else 4
+        self.nt = len(config.terms())
+        self.a, self.y = lay.a, lay.y
+        self.tracks = road_tracks(scenario.road, lay.n_tracks, lay.track_separation())
+        self.offsets = np.array(lay.offsets())
+        self.track_of = [c.track for c in lay.corners]
+        self._track_cols = [(road, np.array([c for c, tr in enumerate(self.track_of) if tr == k]))
+                            for k, road in enumerate(self.tracks)]
+        self.M, self.I, self.I_x = v.chassis_mass, v.chassis_pitch_inertia, v.chassis_roll_inertia
+        axles = v.axles
+        self.m = np.array([axles[c.axle].wheel_mass for c in lay.corners])
+        self.k_T = np.array([axles[c.axle].tyre_stiffness for c in lay.corners])
+        settings = {'k_S': np.zeros(lay.n), 'c_S': np.zeros(lay.n), 'k_R': []}
+        bars = sorted(n for n in design if n.startswith('k_R'))
+        settings['k_R'] = np.zeros(len(bars))
+        for name, targets in corner_of_design(config.design_names(), lay.labels).items():
+            for kind, i in targets:
+                settings[kind][i] = design[name]
+        self.k_S, self.c_S, self.k_R = settings['k_S'], settings['c_S'], settings['k_R']
+        pairs = lay.anti_roll_pairs(tuple(i for i, ax in enumerate(axles) if ax.anti_roll_bar))
+        self.bar_left = [p[1] for p in pairs]
+        self.bar_right = [p[2] for p in pairs]
+        self.bar_track = np.array([axles[p[0]].track for p in pairs])
         if fidelity == 'mixed':
-            self.modules = modules or (SuspensionModule(v.front.mechanism),
-                                       SuspensionModule(v.rear.mechanism))
-            # identical front and rear mechanisms: one batched solver call for both axles
-            self._shared = self.modules[0].mechanism == self.modules[1].mechanism
+            mods = modules or multibody_modules(config)
+            self.groups: list[tuple[object, list[int]]] = []
+            for c, corner in enumerate(lay.corners):
+                mod = mods[axles[corner.axle].mechanism]
+                for m, cols in self.groups:
+                    if m is mod:
+                        cols.append(c)
+                        break
+                else:
+                    self.groups.append((mod, [c]))
             self._guess: dict[int, tuple[np.ndarray, ...]] = {}
         self.max_constraint_residual = 0.0
         self.n_evals = 0
 
-    def _kinematics(self, z_W: list[np.ndarray], v_W: list[np.ndarray]):
-        """Multibody position/velocity analysis of both axles (one batched call if shared)."""
-        groups = [(0, [0, 1])] if self._shared else [(0, [0]), (1, [1])]
+    def road(self, t: np.ndarray) -> np.ndarray:
+        """Road height under every wheel at times ``t`` (N,): (N, corners)."""
+        s = self.scenario.speed * t[:, None] - self.offsets
+        if len(self._track_cols) == 1:
+            return self._track_cols[0][0].r(s)
+        out = np.empty_like(s)
+        for road, cols in self._track_cols:
+            out[:, cols] = road.r(s[:, cols])
+        return out
+
+    def _kinematics(self, z_W: np.ndarray, v_W: np.ndarray):
+        """Multibody position/velocity analysis of every corner (one batch per mechanism),
+        each Newton started from the last pose moved along its tangent."""
         out = {}
-        for m, axles in groups:
-            z = np.concatenate([z_W[i] for i in axles])
+        for g, (mod, cols) in enumerate(self.groups):
+            z, v = z_W[:, cols].ravel(), v_W[:, cols].ravel()
             guess = None
-            if m in self._guess and self._guess[m][0].shape[0] == z.size:
-                # Newton starts from the last pose moved along its tangent: the dependent
-                # velocities per unit wheel-travel rate (where that rate is not ~0)
-                q, qd, z_prev, v_prev = self._guess[m]
+            if g in self._guess and self._guess[g][0].shape[0] == z.size:
+                q, qd, z_prev, v_prev = self._guess[g]
                 safe = np.abs(v_prev) > 1e-9
                 step = np.where(safe, (z - z_prev) / np.where(safe, v_prev, 1.0), 0.0)
                 guess = q + qd * step[:, None]
-            v = np.concatenate([v_W[i] for i in axles])
-            kin = self.modules[m].kinematics(z, v, guess)
-            self._guess[m] = (kin.state.q, kin.state.qd, z, v)
+            kin = mod.kinematics(z, v, guess)
+            self._guess[g] = (kin.state.q, kin.state.qd, z, v)
             self.max_constraint_residual = max(self.max_constraint_residual,
-                                               self.modules[m].constraint_residual(kin.state))
-            out[m] = (axles, kin)
+                                               mod.constraint_residual(kin.state))
+            out[g] = kin
         return out
 
     def signals(self, t: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
-        """All model signals at times ``t`` (N,) for states ``y`` (12, N)."""
-        z_C, v_C, th, om_ = y[:4]
-        z_W, v_W = [y[4], y[6]], [y[5], y[7]]
-        n = np.size(t)
-        delta, _ = wheel_road_inputs(self.road, t, self.speed, self.offsets, rates=False)
-        out = {'delta_1': delta[0], 'delta_2': delta[1]}
+        """All model signals at times ``t`` (N,) for states ``y`` (n_states, N)."""
+        N, nch, nc = np.size(t), self.nch, self.nc
+        ch = y[:nch]
+        z_C, v_C, th, om_ = ch[0], ch[1], ch[2], ch[3]
+        phi, p = (ch[4], ch[5]) if self.roll else (0.0, 0.0)
+        z_W, v_W = y[nch:nch + nc].T, y[nch + nc:nch + 2 * nc].T
+        delta = self.road(np.atleast_1d(t))
+        z_M = eq.mount_motion(z_C, th, phi, self.a, self.y)
+        v_M = eq.mount_motion(v_C, om_, p, self.a, self.y)
+        out = {'delta': delta, 'z_M': z_M}
         if self.fidelity == 'low':
-            spring, wheel = list(zip(z_W, v_W)), z_W
+            spring, spring_rate, wheel = z_W, v_W, z_W
         else:
             kin = self._kinematics(z_W, v_W)
-            spring, wheel = [None, None], [None, None]
-            for axles, k in kin.values():
-                for j, i in enumerate(axles):
-                    sl = slice(j * n, (j + 1) * n)
-                    spring[i] = (k.q_U[sl], k.qd_U[sl])
-                    wheel[i] = k.q_W[sl]
-                    out[f'q_U{i + 1}'] = k.q_U[sl]
-        F_S = [eq.suspension_force(self.k_S[i], self.c_S[i], self.a[i], *spring[i],
-                                   z_C, v_C, th, om_) for i in range(2)]
-        F_T = [eq.tyre_force(self.k_T[i], delta[i], wheel[i]) for i in range(2)]
-        for i in range(2):
-            out[f'wheel_z{i + 1}'] = wheel[i]
-            out[f'F_S{i + 1}'], out[f'F_T{i + 1}'] = F_S[i], F_T[i]
-            if self.fidelity == 'low':
-                out[f'zdd_W{i + 1}'] = eq.wheel_acceleration(F_S[i], F_T[i], self.m[i])
-        if self.fidelity == 'mixed':
-            for m, (axles, k) in kin.items():
-                acc, _ = self.modules[m].dynamics(k.state, np.concatenate([F_S[i] for i in axles]),
-                                                  np.concatenate([F_T[i] for i in axles]))
-                for j, i in enumerate(axles):
-                    out[f'zdd_W{i + 1}'] = acc[j * n:(j + 1) * n]
-        out['zdd_C'] = eq.chassis_heave_acceleration(F_S[0], F_S[1], self.M)
-        out['thdd_C'] = eq.chassis_pitch_acceleration(F_S[0], F_S[1], *self.a, self.I)
-        out['dJ_dt'] = eq.objective_integrands(out['zdd_C'], out['thdd_C'],
-                                               out['wheel_z1'], out['wheel_z2'])
+            spring, spring_rate, wheel = (np.empty((N, nc)) for _ in range(3))
+            for g, (_, cols) in enumerate(self.groups):
+                k = kin[g]
+                spring[:, cols] = k.q_U.reshape(N, len(cols))
+                spring_rate[:, cols] = k.qd_U.reshape(N, len(cols))
+                wheel[:, cols] = k.q_W.reshape(N, len(cols))
+            out['q_U'], out['q_W'] = spring, wheel
+        F_S = eq.suspension_force(self.k_S, self.c_S, spring, spring_rate, z_M, v_M)
+        F_R = eq.anti_roll_force(self.k_R, wheel, z_M, self.bar_track, self.bar_left,
+                                 self.bar_right)
+        F_T = eq.tyre_force(self.k_T, delta, wheel)
+        F = F_S + F_R
+        if self.fidelity == 'low':
+            zdd_W = eq.wheel_acceleration(F_T, F, self.m)
+        else:
+            zdd_W = np.empty((N, nc))
+            for g, (mod, cols) in enumerate(self.groups):
+                acc, _ = mod.dynamics(kin[g].state, F_S[:, cols].ravel(),
+                                      (F_T - F_R)[:, cols].ravel())
+                zdd_W[:, cols] = acc.reshape(N, len(cols))
+        out.update(F_S=F_S, F_R=F_R, F_T=F_T, zdd_W=zdd_W, wheel_z=wheel)
+        out['zdd_C'] = eq.chassis_heave_acceleration(F, self.M)
+        out['thdd_C'] = eq.chassis_pitch_acceleration(F, self.a, self.I)
+        chassis = [out['zdd_C'], out['thdd_C']]
+        if self.roll:
+            out['phidd_C'] = eq.chassis_roll_acceleration(F, self.y, self.I_x)
+            chassis.append(out['phidd_C'])
+        out['dJ_dt'] = eq.objective_integrands(chassis, wheel)
         return out
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
         self.n_evals += 1
         s = self.signals(np.atleast_1d(t), y[:, None])
-        return np.concatenate([y[[1]], s['zdd_C'], y[[3]], s['thdd_C'],
-                               y[[5]], s['zdd_W1'], y[[7]], s['zdd_W2'], s['dJ_dt'][0]])
+        nch, nc = self.nch, self.nc
+        rates = [y[1:2], s['zdd_C'], y[3:4], s['thdd_C']]
+        if self.roll:
+            rates += [y[5:6], s['phidd_C']]
+        return np.concatenate(rates + [y[nch + nc:nch + 2 * nc], s['zdd_W'][0],
+                                       s['dJ_dt'][0]])
+
+    def state_names(self) -> list[str]:
+        names = ['z_C', 'v_C', 'theta_C', 'omega_C'] + (['phi_C', 'p_C'] if self.roll else [])
+        return names
+
+
+def _scenario(config: StudyConfig, scenario: int | Scenario) -> Scenario:
+    return config.scenarios()[scenario] if isinstance(scenario, int) else scenario
 
 
 def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None = None,
-             *, t_eval: np.ndarray | None = None, rtol: float = 1e-8,
-             atol: float = 1e-11) -> Trajectory:
-    """Integrate a model from the zero initial state over the horizon (SPEC §1).
+             *, scenario: int | Scenario = 0, t_eval: np.ndarray | None = None,
+             rtol: float = 1e-8, atol: float = 1e-11, modules: dict | None = None
+             ) -> Trajectory:
+    """Integrate a model from the zero initial state over a scenario's horizon (SPEC §1).
 
     ``design`` defaults to the configured initial design. Returns the trajectory at
     ``t_eval`` (default: 2001 points) with states, accelerations, forces and road inputs,
-    and the objective integrals ``J`` at the final time. The default tolerances give the
-    ``J_k`` to about 1e-8 relative (checked against rtol = 1e-12).
-    """
+    and the objective integrals ``J`` at the final time (term order). The default
+    tolerances give the J_k to about 1e-8 relative."""
     design = dict(config.design.initial() if design is None else design)
-    missing = set(DESIGN_NAMES) - set(design)
+    missing = set(config.design_names()) - set(design)
     if missing:
         raise ValueError(f'design is missing {sorted(missing)}')
-    T = config.maneuver.horizon
-    rhs = VehicleRHS(config, fidelity, design)
-    road = rhs.road
-    # times where the road's second derivative jumps under either wheel
-    breaks = sorted({(s + off) / config.maneuver.speed for s in road.breakpoints()
+    sc = _scenario(config, scenario)
+    T = sc.horizon
+    rhs = VehicleRHS(config, fidelity, design, sc, modules)
+    # times where the road's second derivative jumps under a wheel
+    breaks = sorted({(s + off) / sc.speed for road in rhs.tracks for s in road.breakpoints()
                      for off in rhs.offsets} | {0.0, T})
     breaks = [b for b in breaks if 0.0 <= b <= T]
     t_eval = np.linspace(0.0, T, 2001) if t_eval is None else np.asarray(t_eval, dtype=float)
-    y = np.zeros(len(STATES))
+    nch, nc = rhs.nch, rhs.nc
+    y = np.zeros(nch + 2 * nc + rhs.nt)
     pieces_t, pieces_y = [], []
     t0 = time.perf_counter()
     for ta, tb in zip(breaks[:-1], breaks[1:]):
         sol = solve_ivp(rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol,
                         dense_output=True)
         if sol.status != 0:
-            raise ModelError(f'time marching ({fidelity} fidelity) failed at t = {sol.t[-1]:.4g} s:'
-                             f' {sol.message}')
+            raise ModelError(f'time marching ({fidelity} fidelity) failed at t = '
+                             f'{sol.t[-1]:.4g} s: {sol.message}')
         y = sol.y[:, -1]
         if not np.all(np.isfinite(y)):
             raise ModelError(f'time marching ({fidelity} fidelity) produced NaN/inf')
@@ -181,20 +216,28 @@ def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
     ts = np.concatenate(pieces_t)
     ys = np.concatenate(pieces_y, axis=1)
     wall = time.perf_counter() - t0
-    values = {name: ys[k] for k, name in enumerate(STATES)}
+    values = {name: ys[k] for k, name in enumerate(rhs.state_names())}
+    values['z_W'], values['v_W'] = ys[nch:nch + nc].T, ys[nch + nc:nch + 2 * nc].T
     values.update(rhs.signals(ts, ys))
-    info = {'rhs_evaluations': rhs.n_evals, 'wall_time_s': wall, 'fidelity': fidelity}
+    info = {'rhs_evaluations': rhs.n_evals, 'wall_time_s': wall, 'fidelity': fidelity,
+            'method': 'time-marching', 'scenario': sc.name}
     if fidelity == 'mixed':
         info['max_constraint_residual_m'] = rhs.max_constraint_residual
-    return Trajectory(t=ts, values=values, J=y[8:12].copy(), info=info)
+    return Trajectory(t=ts, values=values, J=y[nch + 2 * nc:].copy(), info=info)
 
 
-def reference_scales(config: StudyConfig) -> tuple[float, float, float, float]:
-    """``s_k`` of the ``reference`` normalization: J_k of the low-fidelity model at the
-    initial design by accurate time marching (SPEC §5)."""
-    J = simulate(config, 'low', t_eval=np.array([0.0, config.maneuver.horizon])).J
-    if not np.all(J > 0.0):
-        raise ConfigError(f'objective.normalization: reference normalization impossible: '
-                          f'J = {J.tolist()} at the initial design (the road does not excite '
-                          "every term); use normalization = 'custom' with scales")
-    return tuple(float(x) for x in J)
+def reference_scales(config: StudyConfig) -> Scales:
+    """``s_k`` of the ``reference`` normalization, per scenario: J_k of the low-fidelity
+    model at the initial design by accurate time marching (SPEC §5)."""
+    out = []
+    terms = config.terms()
+    for i, sc in enumerate(config.scenarios()):
+        J = simulate(config, 'low', scenario=sc, t_eval=np.array([0.0, sc.horizon])).J
+        zero = [t for t, j in zip(terms, J) if not j > 0.0]
+        if zero:
+            where = f'scenario {sc.name!r}: ' if config.scenario else ''
+            raise ConfigError(f'objective.normalization: {where}reference normalization '
+                              f'impossible: the road does not excite {", ".join(zero)} at '
+                              "the initial design; use normalization = 'custom' with scales")
+        out.append(dict(zip(terms, (float(x) for x in J))))
+    return tuple(out)

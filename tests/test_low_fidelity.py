@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from suspopt.config import DESIGN_NAMES
-from suspopt.problem import VehicleProblem
+from suspopt.transcription.problem import VehicleProblem
 from suspopt.study import evaluate, objective_value, optimize
 from suspopt.timemarching import simulate
 
@@ -29,9 +28,9 @@ def test_optimum_converged(low_optimum):
     res = low_optimum
     assert res['success'] and res['status'] == 'Solve_Succeeded'
     assert res['objective'] < 0.9  # improves on f = 1 at the initial design
-    assert set(res['design']) == set(DESIGN_NAMES)
-    assert set(res['terms']) == {'J1', 'J2', 'J3', 'J4'}
-    assert set(res['scales']) == {'s1', 's2', 's3', 's4'}
+    assert set(res['design']) == {'k_S1', 'k_S2', 'c_S1', 'c_S2'}
+    assert set(res['terms']) == {'heave', 'pitch', 'wheel_1', 'wheel_2'} == set(res['scales'])
+    assert res['verified'] is True and res['verification']['max_rel_diff'] < 1e-3
 
 
 @pytest.mark.parametrize('where', ['initial', 'optimum'])
@@ -42,10 +41,10 @@ def test_collocation_matches_time_marching(cfg, scales, low_optimum, where):
         res = evaluate(cfg, 'low', design, scales=scales, problem=vp)
         coll = vp.timeseries()
     tm = simulate(cfg, 'low', design, t_eval=np.unique(coll.t))
-    J_coll = np.array([res['terms'][f'J{k}'] for k in range(1, 5)])
+    J_coll = np.array([res['terms'][t] for t in cfg.terms()])
     assert _max_rel(J_coll, tm.J) < 1e-3
     t_u, idx = np.unique(coll.t, return_index=True)
-    for name in ('z_C', 'theta_C', 'z_W1', 'z_W2', 'zdd_C', 'thdd_C'):
+    for name in ('z_C', 'theta_C', 'z_W', 'zdd_C', 'thdd_C'):
         amp = np.max(np.abs(tm[name]))
         assert np.max(np.abs(coll[name][idx] - tm[name])) < 0.01 * amp, name
 
@@ -55,6 +54,8 @@ def test_paper_grid_is_inaccurate(cfg, scales):
     coarse = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=16))
     res = evaluate(coarse, 'low', scales=scales, guess=None)
     assert abs(res['objective'] - 1.0) > 0.05  # f = 1 exactly by time marching
+    assert res['verified'] is False  # and the result says so
+    assert abs(res['verification']['objective'] - 1.0) < 1e-6
 
 
 def test_total_sparsity_holds_away_from_start(cfg, scales):
@@ -94,14 +95,14 @@ def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_opt
     """Independent route: SciPy L-BFGS-B on the time-marching objective (SciPy's own
     adaptive integrator, finite-difference gradients), started from the box centre, in the
     same bounds. Designs within 1 %, objectives within 0.1 %."""
-    names = DESIGN_NAMES
-    lo = np.array([getattr(cfg.design, n).lower for n in names])
-    hi = np.array([getattr(cfg.design, n).upper for n in names])
+    names = cfg.design_names()
+    lo = np.array([cfg.design[n].lower for n in names])
+    hi = np.array([cfg.design[n].upper for n in names])
 
     def f(u):
         x = dict(zip(names, lo + u * (hi - lo)))
         tr = simulate(cfg, 'low', x, t_eval=np.array([0.0, 5.0]), rtol=1e-9, atol=1e-12)
-        return objective_value(cfg, tr.J, scales)
+        return objective_value(cfg, dict(zip(cfg.terms(), tr.J)), scales[0])
 
     u_star = (np.array([low_optimum['design'][n] for n in names]) - lo) / (hi - lo)
     # start a fair distance from the collocation optimum, halfway from the box centre
@@ -139,10 +140,10 @@ def test_zero_start_with_fresh_coloring_reaches_same_optimum(cfg, scales, low_op
         res = vp.solve()
         traj = vp.timeseries()
     assert res.success
-    for name in ('z_C', 'v_C', 'theta_C', 'omega_C', 'z_W1', 'v_W1', 'z_W2', 'v_W2'):
-        assert traj[name][0] == 0.0
-    x = np.array([res.design[n] for n in DESIGN_NAMES])
-    x_ref = np.array([low_optimum['design'][n] for n in DESIGN_NAMES])
+    for name in ('z_C', 'v_C', 'theta_C', 'omega_C', 'z_W', 'v_W'):
+        assert np.all(traj[name][0] == 0.0)
+    x = np.array([res.design[n] for n in cfg.design_names()])
+    x_ref = np.array([low_optimum['design'][n] for n in cfg.design_names()])
     np.testing.assert_allclose(x, x_ref, rtol=1e-4)
     assert abs(res.objective - low_optimum['objective']) < 1e-7
 

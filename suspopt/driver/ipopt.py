@@ -404,10 +404,11 @@ class IpoptDriver:
         self.status = int(info['status'])
         self.status_message = IPOPT_STATUS.get(self.status,
                                                info['status_msg'].decode(errors='replace'))
-        # leave the model at IPOPT's final point
+        # leave the model at IPOPT's final point (inside the bounds: IPOPT relaxes them by
+        # its bound_relax_factor internally)
         self._x_run = None
         try:
-            self._evaluate(np.asarray(x))
+            self._evaluate(np.clip(np.asarray(x), lb, ub))
         except cyipopt.CyIpoptEvaluationError:
             pass
         return self.status in (0, 1)

@@ -228,19 +228,25 @@ def _topological_order(graph: sp.csr_matrix, n_scc: int, label: np.ndarray) -> l
 def color_columns(pattern: sp.spmatrix) -> np.ndarray:
     """A greedy column coloring: columns of one color share no row; -1 for empty columns.
 
-    Columns are colored in order of decreasing nonzero count, each with the smallest color
-    that none of its neighbours in the column intersection graph (columns sharing a row)
-    has. Cost: proportional to the nonzeros of that graph."""
+    Each column gets the smallest color that none of its neighbours in the column
+    intersection graph (columns sharing a row) has; the dense columns (the design
+    parameters, which touch every node) go first, then the others by their first row (the
+    banded order of a collocation grid). Cost: proportional to the nonzeros of that graph."""
     J = _bool(pattern)
-    n = J.shape[1]
+    m, n = J.shape
     Jc = J.tocsc()
+    Jc.sort_indices()
     degree = np.diff(Jc.indptr)
+    first = np.where(degree > 0, Jc.indices[np.minimum(Jc.indptr[:-1], max(Jc.nnz - 1, 0))],
+                     m)
+    dense = degree > 0.5 * m
+    order = np.lexsort((first, ~dense))
     G = (Jc.T @ J.tocsr()).tocsr()  # columns sharing a row
     colors = np.full(n, -1, dtype=np.int64)
     taken = np.zeros(n + 1, dtype=bool)
-    for c in np.argsort(-degree, kind='stable'):
+    for c in order:
         if degree[c] == 0:
-            break
+            continue
         nb = colors[G.indices[G.indptr[c]:G.indptr[c + 1]]]
         nb = nb[nb >= 0]
         taken[nb] = True
@@ -274,6 +280,6 @@ def _dense_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Variable]
     """OpenMDAO's own (public) total sparsity: randomized dense total Jacobians. Cost and
     memory grow with m × n; the fallback for an OpenMDAO whose internals are unknown."""
     from openmdao.utils.coloring import compute_total_coloring
-    coloring = compute_total_coloring(problem, mode='fwd', of=[v.name for v in of],
+    coloring = compute_total_coloring(problem, of=[v.name for v in of],
                                       wrt=[v.name for v in wrt], num_full_jacs=2)
     return sp.csr_matrix(coloring.get_dense_sparsity(dtype=bool))

@@ -1,4 +1,5 @@
-"""Shared plumbing for the vectorized, analytically differentiated model components."""
+"""Shared plumbing of the model components: vectorized over nodes and corners, with
+sparse analytic partials (Dymos' idiom)."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,23 +7,44 @@ import openmdao.api as om
 
 
 class NodeComponent(om.ExplicitComponent):
-    """An explicit component evaluated at ``num_nodes`` collocation nodes at once.
+    """An explicit component evaluated at ``num_nodes`` collocation nodes at once, with
+    per-wheel variables of shape (num_nodes, corners).
 
-    Subclasses declare node-wise inputs (one value per node) and scalar parameters (one
-    value for all nodes, connected from Dymos parameters as static targets) through the two
-    helpers below, which also declare the sparse partial-derivative patterns: a node-wise
-    output depends on a node-wise input at the same node only (a diagonal), and on a scalar
-    parameter at every node (a column).
+    The helpers declare the sparse partial patterns: a per-node output depends on inputs
+    at the same node (and corner) only; a static per-corner setting (a design variable,
+    the same at every node) enters every node of its corner.
     """
 
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int, desc='number of nodes evaluated at once')
+        self.options.declare('corners', types=int, default=2, desc='number of wheels')
 
-    def _node_partials(self, of: str, wrt: str, val: float | np.ndarray | None = None) -> None:
-        # OpenMDAO's diagonal sub-Jacobian: an element-wise product in every linear solve
-        # (a sparse one with rows = cols costs a bincount; ~30 % of a low-fidelity solve)
+    @property
+    def _shape(self) -> tuple[int, int]:
+        return self.options['num_nodes'], self.options['corners']
+
+    def _corner_partials(self, of: str, wrt: str, val=None) -> None:
+        """(nodes, corners) output and input, entry by entry (OpenMDAO's diagonal
+        sub-Jacobian: an element-wise product in every linear solve)."""
         self.declare_partials(of, wrt, diagonal=True, val=val)
 
-    def _param_partials(self, of: str, wrt: str) -> None:
-        nn = self.options['num_nodes']
-        self.declare_partials(of, wrt, rows=np.arange(nn), cols=np.zeros(nn, dtype=int))
+    def _node_partials(self, of: str, wrt: str, val=None) -> None:
+        """(nodes,) output and input."""
+        self.declare_partials(of, wrt, diagonal=True, val=val)
+
+    def _sum_partials(self, of: str, wrt: str, val=None) -> None:
+        """(nodes,) output of a (nodes, corners) input: each node's corners."""
+        nn, nc = self._shape
+        self.declare_partials(of, wrt, rows=np.repeat(np.arange(nn), nc),
+                              cols=np.arange(nn * nc), val=val)
+
+    def _spread_partials(self, of: str, wrt: str, val=None) -> None:
+        """(nodes, corners) output of a (nodes,) input: every corner of the node."""
+        nn, nc = self._shape
+        self.declare_partials(of, wrt, rows=np.arange(nn * nc),
+                              cols=np.repeat(np.arange(nn), nc), val=val)
+
+    def _setting_partials(self, of: str, wrt: str) -> None:
+        """(nodes, corners) output of a static per-corner (corners,) input."""
+        nn, nc = self._shape
+        self.declare_partials(of, wrt, rows=np.arange(nn * nc), cols=np.tile(np.arange(nc), nn))

@@ -1,4 +1,4 @@
-"""Rigid chassis: heave (paper eq. 5) and pitch (eq. 6)."""
+"""Rigid chassis: heave (paper eq. 5), pitch (eq. 6) and, in the full car, roll."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,58 +7,80 @@ from suspopt.models import equations as eq
 from suspopt.models.base import NodeComponent
 
 
-class ChassisHeaveComp(NodeComponent):
-    """Chassis heave, eq. 5: ``M z''_C = F_S1 + F_S2``."""
+class _ChassisComp(NodeComponent):
+    """Shared setup: the suspension's vertical forces on the chassis at each corner
+    (``forces``: input names, summed, e.g. springs and anti-roll bars)."""
+
+    output = ''
+    units = ''
+
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('forces', types=tuple, default=('F_S',),
+                             desc='names of the (nodes, corners) forces on the chassis [N]')
 
     def setup(self) -> None:
-        nn = self.options['num_nodes']
-        self.add_input('F_S1', shape=(nn,), units='N', desc='front suspension force')
-        self.add_input('F_S2', shape=(nn,), units='N', desc='rear suspension force')
-        self.add_input('M', val=1414.0, units='kg', desc='chassis mass')
-        self.add_output('zdd_C', shape=(nn,), units='m/s**2', desc='chassis heave acceleration')
-        self._node_partials('zdd_C', 'F_S1')
-        self._node_partials('zdd_C', 'F_S2')
-        self._param_partials('zdd_C', 'M')
+        nn, nc = self._shape
+        for name in self.options['forces']:
+            self.add_input(name, shape=(nn, nc), units='N', desc='force on the chassis, up')
+        self.add_output(self.output, shape=(nn,), units=self.units)
+        for name in self.options['forces']:
+            self._sum_partials(self.output, name, val=np.tile(self._lever(), nn))
+
+    def _lever(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _total(self, inputs) -> np.ndarray:
+        return sum(inputs[name] for name in self.options['forces'])
+
+
+class ChassisHeaveComp(_ChassisComp):
+    """Chassis heave, eq. 5: ``M z''_C = Σ_c F_c``."""
+
+    output, units = 'zdd_C', 'm/s**2'
+
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('M', types=float, desc='chassis (sprung) mass [kg]')
+
+    def _lever(self) -> np.ndarray:
+        return np.full(self.options['corners'], 1.0 / self.options['M'])
 
     def compute(self, inputs, outputs) -> None:
-        outputs['zdd_C'] = eq.chassis_heave_acceleration(inputs['F_S1'], inputs['F_S2'],
-                                                         inputs['M'])
-
-    def compute_partials(self, inputs, partials) -> None:
-        M = inputs['M'][0]
-        nn = self.options['num_nodes']
-        partials['zdd_C', 'F_S1'] = np.full(nn, 1.0 / M)
-        partials['zdd_C', 'F_S2'] = np.full(nn, 1.0 / M)
-        partials['zdd_C', 'M'] = -(inputs['F_S1'] + inputs['F_S2']) / M**2
+        outputs['zdd_C'] = eq.chassis_heave_acceleration(self._total(inputs), self.options['M'])
 
 
-class ChassisPitchComp(NodeComponent):
-    """Chassis pitch, eq. 6: ``I theta''_C = -a1 F_S1 - a2 F_S2`` (theta positive nose down)."""
+class ChassisPitchComp(_ChassisComp):
+    """Chassis pitch, eq. 6: ``I θ''_C = -Σ_c a_c F_c`` (θ positive nose down)."""
 
-    def setup(self) -> None:
-        nn = self.options['num_nodes']
-        self.add_input('F_S1', shape=(nn,), units='N', desc='front suspension force')
-        self.add_input('F_S2', shape=(nn,), units='N', desc='rear suspension force')
-        self.add_input('a1', val=1.271, units='m', desc='front axle ahead of the CG')
-        self.add_input('a2', val=-1.713, units='m', desc='rear axle ahead of the CG (< 0)')
-        self.add_input('I', val=2782.0, units='kg*m**2', desc='chassis pitch inertia')
-        self.add_output('thdd_C', shape=(nn,), units='rad/s**2',
-                        desc='chassis pitch acceleration')
-        self._node_partials('thdd_C', 'F_S1')
-        self._node_partials('thdd_C', 'F_S2')
-        for wrt in ('a1', 'a2', 'I'):
-            self._param_partials('thdd_C', wrt)
+    output, units = 'thdd_C', 'rad/s**2'
+
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('a', types=np.ndarray, desc='corner positions ahead of the CG [m]')
+        self.options.declare('I', types=float, desc='chassis pitch inertia [kg m^2]')
+
+    def _lever(self) -> np.ndarray:
+        return -self.options['a'] / self.options['I']
 
     def compute(self, inputs, outputs) -> None:
-        outputs['thdd_C'] = eq.chassis_pitch_acceleration(
-            inputs['F_S1'], inputs['F_S2'], inputs['a1'], inputs['a2'], inputs['I'])
+        outputs['thdd_C'] = eq.chassis_pitch_acceleration(self._total(inputs), self.options['a'],
+                                                          self.options['I'])
 
-    def compute_partials(self, inputs, partials) -> None:
-        a1, a2, I = inputs['a1'][0], inputs['a2'][0], inputs['I'][0]
-        nn = self.options['num_nodes']
-        F1, F2 = inputs['F_S1'], inputs['F_S2']
-        partials['thdd_C', 'F_S1'] = np.full(nn, -a1 / I)
-        partials['thdd_C', 'F_S2'] = np.full(nn, -a2 / I)
-        partials['thdd_C', 'a1'] = -F1 / I
-        partials['thdd_C', 'a2'] = -F2 / I
-        partials['thdd_C', 'I'] = (a1 * F1 + a2 * F2) / I**2
+
+class ChassisRollComp(_ChassisComp):
+    """Chassis roll (full car): ``I_x φ''_C = Σ_c y_c F_c`` (φ positive left side up)."""
+
+    output, units = 'phidd_C', 'rad/s**2'
+
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('y', types=np.ndarray, desc='corner positions left of the CG [m]')
+        self.options.declare('I_x', types=float, desc='chassis roll inertia [kg m^2]')
+
+    def _lever(self) -> np.ndarray:
+        return self.options['y'] / self.options['I_x']
+
+    def compute(self, inputs, outputs) -> None:
+        outputs['phidd_C'] = eq.chassis_roll_acceleration(self._total(inputs),
+                                                          self.options['y'], self.options['I_x'])

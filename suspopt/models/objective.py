@@ -1,4 +1,5 @@
-"""The objective (paper eq. 4, SPEC §5): integrands along the trajectory and the weighted sum."""
+"""The objective (paper eq. 4, SPEC §5): integrands along the trajectory, their integrals
+by the collocation's quadrature, and the normalized weighted sum."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,37 +8,52 @@ import openmdao.api as om
 from suspopt.models import equations as eq
 from suspopt.models.base import NodeComponent
 
-#: Names of the four objective terms, in order.
-TERMS = ('J1', 'J2', 'J3', 'J4')
+#: units of each term's integral, by the start of its name
+TERM_UNITS = {'heave': '(m/s²)²·s', 'pitch': '(rad/s²)²·s', 'roll': '(rad/s²)²·s',
+              'wheel': 'm²·s'}
+
+
+def term_units(term: str) -> str:
+    return TERM_UNITS[term.split('_')[0]]
 
 
 class ObjectiveIntegrandComp(NodeComponent):
-    """Integrands of ``J_1..J_4`` (eq. 4): ``z''_C², theta''_C², z_W1², z_W2²``.
+    """Integrands of the objective terms (eq. 4): ``z''_C², θ''_C²`` (and ``φ''_C²``) and
+    every wheel's travel squared. The output ``dJ_dt`` (num_nodes × terms) is integrated
+    over the horizon by :class:`ObjectiveQuadratureComp`; its columns have different units
+    (:data:`TERM_UNITS`), so the vector is declared unitless."""
 
-    The output ``dJ_dt`` (num_nodes × 4) is integrated over the horizon by
-    :class:`ObjectiveQuadratureComp` with the collocation's own quadrature (SPEC §5). The
-    four terms have different units; the vector is declared unitless and documented here.
-    """
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('roll', types=bool, default=False)
+
+    def _chassis(self) -> tuple[tuple[str, str], ...]:
+        out = (('zdd_C', 'm/s**2'), ('thdd_C', 'rad/s**2'))
+        return out + ((('phidd_C', 'rad/s**2'),) if self.options['roll'] else ())
 
     def setup(self) -> None:
-        nn = self.options['num_nodes']
-        self.add_input('zdd_C', shape=(nn,), units='m/s**2')
-        self.add_input('thdd_C', shape=(nn,), units='rad/s**2')
-        self.add_input('z_W1', shape=(nn,), units='m')
-        self.add_input('z_W2', shape=(nn,), units='m')
-        self.add_output('dJ_dt', shape=(nn, 4), units=None,
-                        desc='[(m/s²)², (rad/s²)², m², m²] integrands of J1..J4')
+        nn, nc = self._shape
+        chassis = self._chassis()
+        nt = len(chassis) + nc
+        for name, units in chassis:
+            self.add_input(name, shape=(nn,), units=units)
+        self.add_input('wheel_z', shape=(nn, nc), units='m', desc='wheel displacement')
+        self.add_output('dJ_dt', shape=(nn, nt), units=None, desc='integrand of each term')
         ar = np.arange(nn)
-        for k, wrt in enumerate(('zdd_C', 'thdd_C', 'z_W1', 'z_W2')):
-            self.declare_partials('dJ_dt', wrt, rows=4 * ar + k, cols=ar)
+        for k, (name, _) in enumerate(chassis):
+            self.declare_partials('dJ_dt', name, rows=nt * ar + k, cols=ar)
+        self.declare_partials('dJ_dt', 'wheel_z',
+                              rows=(nt * ar[:, None] + len(chassis) + np.arange(nc)).ravel(),
+                              cols=np.arange(nn * nc))
 
     def compute(self, inputs, outputs) -> None:
-        outputs['dJ_dt'] = eq.objective_integrands(inputs['zdd_C'], inputs['thdd_C'],
-                                                   inputs['z_W1'], inputs['z_W2'])
+        outputs['dJ_dt'] = eq.objective_integrands([inputs[n] for n, _ in self._chassis()],
+                                                   inputs['wheel_z'])
 
     def compute_partials(self, inputs, partials) -> None:
-        for wrt in ('zdd_C', 'thdd_C', 'z_W1', 'z_W2'):
-            partials['dJ_dt', wrt] = 2.0 * inputs[wrt]
+        for name, _ in self._chassis():
+            partials['dJ_dt', name] = 2.0 * inputs[name]
+        partials['dJ_dt', 'wheel_z'] = 2.0 * inputs['wheel_z'].ravel()
 
 
 class ObjectiveQuadratureComp(om.ExplicitComponent):
@@ -46,22 +62,22 @@ class ObjectiveQuadratureComp(om.ExplicitComponent):
     ``weights`` (option, one per node) are the Radau (LGR) quadrature weights of the grid
     times each segment's dt/dτ, zero at the segment ends that are not collocation points.
     This is exactly the value an integrated state ``J' = dJ_dt`` would reach under Radau
-    collocation, without 4 × (number of nodes) extra NLP variables and defects: IPOPT's
-    KKT system of the 80 × 5 problem shrinks from 9604 to 6404 rows.
+    collocation, without (terms × nodes) extra NLP variables and defects.
     """
 
     def initialize(self) -> None:
         self.options.declare('weights', types=np.ndarray, desc='quadrature weight per node [s]')
+        self.options.declare('terms', types=int, desc='number of objective terms')
 
     def setup(self) -> None:
-        w = self.options['weights']
+        w, nt = self.options['weights'], self.options['terms']
         nn = w.size
-        self.add_input('dJ_dt', shape=(nn, 4), units=None, desc='integrands at the nodes')
-        self.add_output('J', shape=(4,), units=None, desc='J1..J4 over the horizon')
+        self.add_input('dJ_dt', shape=(nn, nt), units=None, desc='integrands at the nodes')
+        self.add_output('J', shape=(nt,), units=None, desc='the terms over the horizon')
         nodes = np.nonzero(w)[0]
-        rows = np.tile(np.arange(4), nodes.size)
-        cols = (4 * nodes[:, None] + np.arange(4)).ravel()
-        self.declare_partials('J', 'dJ_dt', rows=rows, cols=cols, val=np.repeat(w[nodes], 4))
+        rows = np.tile(np.arange(nt), nodes.size)
+        cols = (nt * nodes[:, None] + np.arange(nt)).ravel()
+        self.declare_partials('J', 'dJ_dt', rows=rows, cols=cols, val=np.repeat(w[nodes], nt))
 
     def compute(self, inputs, outputs) -> None:
         outputs['J'] = self.options['weights'] @ inputs['dJ_dt']
@@ -74,10 +90,14 @@ class WeightedObjectiveComp(om.ExplicitComponent):
     weighting (Pareto sweeps) and normalization without a new setup or coloring.
     """
 
+    def initialize(self) -> None:
+        self.options.declare('terms', types=int, desc='number of objective terms')
+
     def setup(self) -> None:
-        self.add_input('J', shape=(4,), units=None, desc='J1..J4 at the final time')
-        self.add_input('weights', val=np.full(4, 0.25), units=None)
-        self.add_input('scales', val=np.ones(4), units=None)
+        nt = self.options['terms']
+        self.add_input('J', shape=(nt,), units=None, desc='the terms over the horizon')
+        self.add_input('weights', val=np.full(nt, 1.0 / nt), units=None)
+        self.add_input('scales', val=np.ones(nt), units=None)
         self.add_output('f', units=None, desc='normalized weighted objective')
         self.declare_partials('f', ['J', 'weights', 'scales'])
 
@@ -89,3 +109,43 @@ class WeightedObjectiveComp(om.ExplicitComponent):
         partials['f', 'J'] = w / s
         partials['f', 'weights'] = J / s
         partials['f', 'scales'] = -w * J / s**2
+
+
+class ScenarioObjectiveComp(om.ExplicitComponent):
+    """Several scenarios' objectives into one: ``Σ_s w_s f_s`` (robust design, sum)."""
+
+    def initialize(self) -> None:
+        self.options.declare('weights', types=tuple, desc='scenario weights')
+
+    def setup(self) -> None:
+        for i in range(len(self.options['weights'])):
+            self.add_input(f'f{i}', val=0.0)
+        self.add_output('f', val=0.0, desc='the combined objective')
+        for i, w in enumerate(self.options['weights']):
+            self.declare_partials('f', f'f{i}', val=float(w))
+
+    def compute(self, inputs, outputs) -> None:
+        outputs['f'] = sum(w * inputs[f'f{i}'] for i, w in enumerate(self.options['weights']))
+
+
+class WorstCaseGapComp(om.ExplicitComponent):
+    """The epigraph of the worst case (``aggregate = "max"``): ``g_s = f_s - t`` (constrained
+    ≤ 0), so minimizing ``t`` minimizes ``max_s f_s`` with smooth functions."""
+
+    def initialize(self) -> None:
+        self.options.declare('n', types=int, desc='number of scenarios')
+
+    def setup(self) -> None:
+        n = self.options['n']
+        for i in range(n):
+            self.add_input(f'f{i}', val=0.0)
+        self.add_input('t', val=0.0, desc='bound on every scenario objective')
+        self.add_output('gap', shape=(n,), desc='f_s - t')
+        for i in range(n):
+            self.declare_partials('gap', f'f{i}', rows=[i], cols=[0], val=1.0)
+        self.declare_partials('gap', 't', rows=np.arange(n), cols=np.zeros(n, dtype=int),
+                              val=-np.ones(n))
+
+    def compute(self, inputs, outputs) -> None:
+        outputs['gap'] = np.array([inputs[f'f{i}'][0] for i in range(self.options['n'])]) \
+            - inputs['t'][0]

@@ -1,4 +1,4 @@
-"""Wheel (unsprung mass) of the half car: paper eqs. 7-8."""
+"""Wheels (unsprung masses) of the half and full car: paper eqs. 7-8."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,28 +8,29 @@ from suspopt.models.base import NodeComponent
 
 
 class WheelDynamicsComp(NodeComponent):
-    """Wheel hop of one axle, eqs. 7-8: ``m z''_W = -F_S + F_T``.
+    """Wheel hop at every corner, eqs. 7-8: ``m z''_W = F_T - Σ F`` (the suspension's forces
+    on the chassis, ``forces``, act on the wheel with the opposite sign).
 
     In the mixed-fidelity model this equation is replaced by the multibody module
     (:mod:`suspopt.multibody.components`).
     """
 
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('forces', types=tuple, default=('F_S',))
+        self.options.declare('m', types=np.ndarray, desc='wheel (unsprung) mass per corner [kg]')
+
     def setup(self) -> None:
-        nn = self.options['num_nodes']
-        self.add_input('F_S', shape=(nn,), units='N', desc='suspension force (on the chassis)')
-        self.add_input('F_T', shape=(nn,), units='N', desc='tyre force (on the wheel)')
-        self.add_input('m', val=120.0, units='kg', desc='wheel (unsprung) mass')
-        self.add_output('zdd_W', shape=(nn,), units='m/s**2', desc='wheel vertical acceleration')
-        self._node_partials('zdd_W', 'F_S')
-        self._node_partials('zdd_W', 'F_T')
-        self._param_partials('zdd_W', 'm')
+        nn, nc = self._shape
+        self.add_input('F_T', shape=(nn, nc), units='N', desc='tyre force on the wheel, up')
+        for name in self.options['forces']:
+            self.add_input(name, shape=(nn, nc), units='N', desc='force on the chassis, up')
+        self.add_output('zdd_W', shape=(nn, nc), units='m/s**2', desc='wheel acceleration')
+        inv_m = np.tile(1.0 / self.options['m'], nn)
+        self._corner_partials('zdd_W', 'F_T', val=inv_m)
+        for name in self.options['forces']:
+            self._corner_partials('zdd_W', name, val=-inv_m)
 
     def compute(self, inputs, outputs) -> None:
-        outputs['zdd_W'] = eq.wheel_acceleration(inputs['F_S'], inputs['F_T'], inputs['m'])
-
-    def compute_partials(self, inputs, partials) -> None:
-        m = inputs['m'][0]
-        nn = self.options['num_nodes']
-        partials['zdd_W', 'F_S'] = np.full(nn, -1.0 / m)
-        partials['zdd_W', 'F_T'] = np.full(nn, 1.0 / m)
-        partials['zdd_W', 'm'] = -(inputs['F_T'] - inputs['F_S']) / m**2
+        F = sum(inputs[name] for name in self.options['forces'])
+        outputs['zdd_W'] = eq.wheel_acceleration(inputs['F_T'], F, self.options['m'])

@@ -2,10 +2,12 @@
 
 The optimizer treats the module as an existing solver without adjoints: its partials
 come from finite differences only, never from hand-written or automatic derivatives.
-Because node ``i``'s outputs depend on node ``i``'s inputs only, the differences are
-taken inside ``compute_partials`` by perturbing one input at *all* nodes at once (the
-node-wise coloring is known in advance): a full Jacobian costs one batched solver call
-per input variable (two with central differences), whatever the number of nodes. The
+Because the outputs of node ``i`` at corner ``c`` depend on that node's and corner's inputs
+only, the differences are taken inside ``compute_partials`` by perturbing one input at
+*all* nodes and corners at once (the coloring is known in advance): a full Jacobian costs
+one batched solver call per input variable and mechanism (two with central differences),
+whatever the number of nodes and corners. The corners that share a mechanism are analysed
+in one batch. The
 partials are declared with their node-wise ``rows``/``cols``, so OpenMDAO and the total
 sparsity (:mod:`suspopt.driver.sparsity`) see the exact pattern. Only OpenMDAO's public
 component API is used.
@@ -33,8 +35,8 @@ from suspopt.multibody.suspension import SuspensionModule
 
 
 class NodewiseBlackBox(om.ExplicitComponent):
-    """An explicit component whose outputs at each node depend only on the inputs at the
-    same node, differentiated by finite differences only.
+    """An explicit component whose outputs at each node and corner depend only on the
+    inputs at the same node and corner, differentiated by finite differences only.
 
     Subclasses call :meth:`declare_nodewise_fd` in ``setup`` and implement
     :meth:`evaluate` (the black-box call: input arrays in, output arrays out).
@@ -42,24 +44,37 @@ class NodewiseBlackBox(om.ExplicitComponent):
 
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
-        self.options.declare('module', types=SuspensionModule,
-                             desc="this axle's multibody suspension (the black box)")
+        self.options.declare('corners', types=int, default=1)
+        self.options.declare('modules', types=tuple,
+                             desc='the multibody suspension of every corner (the black box)')
         self.options.declare('fd_form', default='forward', values=('forward', 'central'))
         self.options.declare('fd_step', default=1e-6, types=float,
                              desc='absolute FD step, in the SI units of every input')
 
     def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str]) -> None:
-        """Partials of each output (``outputs[name]`` values per node) w.r.t. each node-wise
-        input: one block of ``outputs[name]`` rows per node, in that node's column.
+        """Partials of each output (``outputs[name]`` values per node and corner) w.r.t.
+        each (nodes, corners) input: one block of rows per entry, in that entry's column.
 
         The step is absolute and the same for every input (in its SI units)."""
-        nn = self.options['num_nodes']
+        n = self.options['num_nodes'] * self.options['corners']
         self._fd_outputs, self._fd_inputs = dict(outputs), list(inputs)
         for of, width in outputs.items():
-            rows = np.arange(nn * width)
-            cols = np.repeat(np.arange(nn), width)
+            rows = np.arange(n * width)
+            cols = np.repeat(np.arange(n), width)
             for wrt in inputs:
                 self.declare_partials(of, wrt, rows=rows, cols=cols)
+
+    def groups(self) -> list[tuple[SuspensionModule, list[int]]]:
+        """The corners of each distinct module (analysed in one batch)."""
+        out: list[tuple[SuspensionModule, list[int]]] = []
+        for c, mod in enumerate(self.options['modules']):
+            for m, cols in out:
+                if m is mod:
+                    cols.append(c)
+                    break
+            else:
+                out.append((mod, [c]))
+        return out
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The black-box call: node-wise inputs by name → outputs by name."""
@@ -102,52 +117,69 @@ class NodewiseBlackBox(om.ExplicitComponent):
 
 
 class SuspensionKinematicsComp(NodewiseBlackBox):
-    """Position/velocity analysis of one suspension module (black box, FD partials).
+    """Position/velocity analysis of every corner's module (black box, FD partials).
 
-    ``z_W`` is the module's independent coordinate (wheel travel, SPEC §3); outputs are
-    the vertical displacement and velocity of the spring point (``q^z_U``, eq. 12) and of
-    the wheel (``q^z_W``, eq. 13), measured from the reference pose.
+    ``z_W`` is a module's independent coordinate (wheel travel, SPEC §3); outputs are the
+    vertical displacement and velocity of the spring point (``q^z_U``, eq. 12) and of the
+    wheel (``q^z_W``, eq. 13), measured from the reference pose; all (nodes, corners).
     """
 
+    OUTPUTS = ('q_U', 'qd_U', 'q_W', 'qd_W')
+
     def setup(self) -> None:
-        nn = self.options['num_nodes']
-        self.add_input('z_W', shape=(nn,), units='m', desc='wheel travel (independent coord.)')
-        self.add_input('v_W', shape=(nn,), units='m/s', desc='wheel travel rate')
-        self.add_output('q_U', shape=(nn,), units='m', desc='spring point vertical disp.')
-        self.add_output('qd_U', shape=(nn,), units='m/s', desc='spring point vertical vel.')
-        self.add_output('q_W', shape=(nn,), units='m', desc='wheel vertical displacement')
-        self.add_output('qd_W', shape=(nn,), units='m/s', desc='wheel vertical velocity')
-        self.declare_nodewise_fd({'q_U': 1, 'qd_U': 1, 'q_W': 1, 'qd_W': 1}, ['z_W', 'v_W'])
+        shape = (self.options['num_nodes'], self.options['corners'])
+        self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
+        self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
+        self.add_output('q_U', shape=shape, units='m', desc='spring point vertical disp.')
+        self.add_output('qd_U', shape=shape, units='m/s', desc='spring point vertical vel.')
+        self.add_output('q_W', shape=shape, units='m', desc='wheel vertical displacement')
+        self.add_output('qd_W', shape=shape, units='m/s', desc='wheel vertical velocity')
+        self.declare_nodewise_fd({n: 1 for n in self.OUTPUTS}, ['z_W', 'v_W'])
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        kin = self.options['module'].kinematics(values['z_W'], values['v_W'])
-        return {'q_U': kin.q_U, 'qd_U': kin.qd_U, 'q_W': kin.q_W, 'qd_W': kin.qd_W}
+        z, v = values['z_W'], values['v_W']
+        out = {n: np.empty_like(z) for n in self.OUTPUTS}
+        for mod, cols in self.groups():
+            kin = mod.kinematics(z[:, cols].ravel(), v[:, cols].ravel())
+            for n in self.OUTPUTS:
+                out[n][:, cols] = getattr(kin, n).reshape(z.shape[0], len(cols))
+        return out
 
 
 class SuspensionDynamicsComp(NodewiseBlackBox):
-    """Dynamic analysis of one suspension module (black box, FD partials), eq. 11.
+    """Dynamic analysis of every corner's module (black box, FD partials), eq. 11.
 
     Inputs: wheel travel state and the two applied force magnitudes (``-F_S`` vertical on
     the spring point, ``+F_T`` vertical on the contact patch, SPEC §3). Outputs: the
     wheel-travel acceleration (this replaces the half car's eq. 7/8) and the reaction
-    force each joint applies on its first body (from ``λ``).
+    force each joint applies on its first body (from ``λ``; (nodes, corners, joints, 2),
+    zero-padded to the mechanism with the most joints).
     """
 
     def setup(self) -> None:
-        nn = self.options['num_nodes']
-        nj = self.options['module'].solver.nj
-        self.add_input('z_W', shape=(nn,), units='m', desc='wheel travel (independent coord.)')
-        self.add_input('v_W', shape=(nn,), units='m/s', desc='wheel travel rate')
-        self.add_input('F_S', shape=(nn,), units='N', desc='suspension force (eq. 12)')
-        self.add_input('F_T', shape=(nn,), units='N', desc='tyre force (eq. 13)')
-        self.add_output('zdd_W', shape=(nn,), units='m/s**2', desc='wheel travel acceleration')
-        self.add_output('reactions', shape=(nn, nj, 2), units='N',
+        nn, nc = self.options['num_nodes'], self.options['corners']
+        nj = max(m.solver.nj for m in self.options['modules'])
+        self._nj = nj
+        shape = (nn, nc)
+        self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
+        self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
+        self.add_input('F_S', shape=shape, units='N', desc='suspension force (eq. 12)')
+        self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
+        self.add_output('zdd_W', shape=shape, units='m/s**2', desc='wheel travel acceleration')
+        self.add_output('reactions', shape=(nn, nc, nj, 2), units='N',
                         desc='joint reaction on the first body of each joint, (x, z)')
         self.declare_nodewise_fd({'zdd_W': 1, 'reactions': 2 * nj},
                                  ['z_W', 'v_W', 'F_S', 'F_T'])
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        module: SuspensionModule = self.options['module']
-        kin = module.kinematics(values['z_W'], values['v_W'])
-        zdd, reactions = module.dynamics(kin.state, values['F_S'], values['F_T'])
+        z = values['z_W']
+        nn = z.shape[0]
+        zdd = np.empty_like(z)
+        reactions = np.zeros(z.shape + (self._nj, 2))
+        for mod, cols in self.groups():
+            flat = {k: values[k][:, cols].ravel() for k in ('z_W', 'v_W', 'F_S', 'F_T')}
+            kin = mod.kinematics(flat['z_W'], flat['v_W'])
+            acc, reac = mod.dynamics(kin.state, flat['F_S'], flat['F_T'])
+            zdd[:, cols] = acc.reshape(nn, len(cols))
+            reactions[:, cols, :reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
         return {'zdd_W': zdd, 'reactions': reactions}

@@ -1,0 +1,224 @@
+"""Results: the record of every run, its files, and reading them back.
+
+* :func:`write_json` / :func:`read_json` — atomic JSON (a reader never sees half a file;
+  a damaged file is a one-line :class:`~suspopt.errors.ConfigError` naming it);
+* :class:`RunDirectory` — an output directory of one run: one run at a time (a lock
+  file, a second run is refused at once), ``--overwrite`` clears what a run writes before
+  it starts, and the inputs it used (road CSV files, mechanism files) are copied in so a
+  report never reads the user's original files;
+* :func:`read_trajectory` — a trajectory recorded by OpenMDAO's case recorder;
+* :func:`result_record` — the plain record of one optimization or evaluation (what
+  ``result.json``, a study step, a Pareto point or a sweep task holds), with its
+  time-marching verification (or the statement that it was skipped).
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspopt.errors import ConfigError, RunError
+from suspopt.trajectory import Trajectory
+
+#: files and folders a run may write into its directory (cleared by ``--overwrite``)
+RUN_OUTPUTS = ('result.json', 'study.json', 'pareto.json', 'compare.json', 'table.md',
+               'cases.sql', 'low.sql', 'mixed.sql', 'time_marching.npz', 'figures', 'inputs',
+               'sweep.json', 'summary.csv', 'tasks')
+LOCK = '.suspopt.lock'
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f'not JSON serializable: {type(obj).__name__}')
+
+
+def write_json(path: str | Path, data: Any) -> None:
+    """Write JSON atomically: a reader never sees a half-written file. A full or
+    unwritable disk is a :class:`RunError` naming the file."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
+    except OSError as err:
+        raise RunError(f'cannot write {path}: {err.strerror}') from None
+    try:
+        with os.fdopen(fd, 'w') as fh:
+            json.dump(data, fh, indent=2, default=_json_default)
+            fh.write('\n')
+        os.replace(tmp, path)
+    except OSError as err:
+        os.unlink(tmp)
+        raise RunError(f'cannot write {path}: {err.strerror}') from None
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
+def write_text(path: str | Path, text: str) -> None:
+    """Write a text file atomically (tables)."""
+    path = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
+        with os.fdopen(fd, 'w') as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except OSError as err:
+        raise RunError(f'cannot write {path}: {err.strerror}') from None
+
+
+def read_json(path: str | Path) -> dict[str, Any]:
+    """A results file; a missing or damaged one is a ConfigError naming it."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f'{path.parent}: no {path.name} (not a suspopt output directory, '
+                          'or the run wrote nothing yet)') from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ConfigError(f'{path}: damaged results file ({err})') from None
+    except OSError as err:
+        raise ConfigError(f'cannot read {path}: {err.strerror}') from None
+    if not isinstance(data, dict):
+        raise ConfigError(f'{path}: damaged results file (not a JSON object)')
+    return data
+
+
+class RunDirectory:
+    """The output directory of one run (see the module docstring).
+
+    Use as a context manager: entering takes the lock (refusing a directory another run
+    holds) and prepares the directory; leaving releases the lock."""
+
+    def __init__(self, path: str | Path, overwrite: bool = False):
+        self.path = Path(path)
+        self.overwrite = overwrite
+        self._lock_fd: int | None = None
+
+    def __enter__(self) -> 'RunDirectory':
+        p = self.path
+        if p.exists() and not p.is_dir():
+            raise ConfigError(f'--out: {p} exists and is not a directory')
+        try:
+            p.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise ConfigError(f'--out: cannot create {p}: {err.strerror}') from None
+        if not os.access(p, os.W_OK):
+            raise ConfigError(f'--out: {p} is not writable')
+        self._lock()
+        try:
+            existing = [q for q in p.iterdir() if q.name != LOCK]
+            if existing and not self.overwrite:
+                raise ConfigError(f'--out: {p} already contains results; choose another '
+                                  'directory or pass --overwrite')
+            for q in existing:  # --overwrite: nothing of an earlier run survives
+                if q.name in RUN_OUTPUTS or q.suffix in ('.sql', '.json', '.md', '.npz', '.png'):
+                    shutil.rmtree(q) if q.is_dir() else q.unlink()
+        except BaseException:
+            self._unlock()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._unlock()
+
+    def _lock(self) -> None:
+        import fcntl
+        path = self.path / LOCK
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
+        except OSError as err:
+            raise ConfigError(f'--out: cannot create {path}: {err.strerror}') from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise ConfigError(f'--out: {self.path} is in use by another suspopt run (lock '
+                              f'{LOCK}); wait for it or choose another directory') from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f'{os.getpid()}\n'.encode())
+        self._lock_fd = fd
+
+    def _unlock(self) -> None:
+        if self._lock_fd is not None:
+            os.close(self._lock_fd)
+            self._lock_fd = None
+            try:
+                (self.path / LOCK).unlink()
+            except OSError:
+                pass
+
+    def __truediv__(self, name: str) -> Path:
+        return self.path / name
+
+    def keep_inputs(self, config_dict: dict[str, Any]) -> dict[str, Any]:
+        """Copy the files the study reads (road CSVs, mechanism files) into ``inputs/`` and
+        return the study description pointing at those copies (self-contained results)."""
+        from suspopt.multibody.mechanism import builtin_mechanisms
+        inputs = self.path / 'inputs'
+        out = json.loads(json.dumps(config_dict))
+        copied: dict[str, str] = {}
+
+        def keep(src: str) -> str:
+            if src not in copied:
+                try:
+                    inputs.mkdir(exist_ok=True)
+                    dst = inputs / f'{len(copied)}_{Path(src).name}'
+                    shutil.copyfile(src, dst)
+                except OSError as err:
+                    raise RunError(f'cannot copy {src} into {inputs}: {err.strerror}') from None
+                copied[src] = str(dst.resolve())
+            return copied[src]
+
+        def roads(road: dict[str, Any]) -> None:
+            if road.get('profile') == 'csv' and road.get('file'):
+                road['file'] = keep(road['file'])
+            for side in ('left', 'right'):
+                if isinstance(road.get(side), dict):
+                    roads(road[side])
+
+        roads(out['road'])
+        for sc in out.get('scenario', []):
+            if sc.get('road'):
+                roads(sc['road'])
+        for axle in ('front', 'rear'):
+            mech = out['vehicle'][axle]['mechanism']
+            if mech not in builtin_mechanisms():
+                out['vehicle'][axle]['mechanism'] = keep(mech)
+        return out
+
+
+def read_trajectory(recorder: Any, label: str, scenario: int = 0) -> Trajectory | None:
+    """The trajectory of one scenario recorded as problem case ``label`` (None if absent);
+    ``recorder`` is a case recorder file or an open ``CaseReader`` (reuse: opening one
+    takes about half a second)."""
+    import openmdao.api as om
+    try:
+        cr = om.CaseReader(str(recorder)) if isinstance(recorder, (str, Path)) else recorder
+        if label not in cr.list_cases('problem', recurse=False, out_stream=None):
+            return None
+        case = cr.get_case(label)
+    except Exception as err:  # sqlite errors of a damaged file
+        raise ConfigError(f'{recorder}: damaged case recorder ({err})') from None
+    ts = f'traj.s{scenario}.timeseries.'
+    outputs = case.list_outputs(out_stream=None, return_format='dict', prom_name=True)
+    values: dict[str, np.ndarray] = {}
+    for meta in outputs.values():
+        prom = meta['prom_name']
+        if prom.startswith(ts):
+            val = np.asarray(meta['val'])
+            name = prom[len(ts):]
+            values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
+    if 'time' not in values:
+        return None
+    J = np.asarray(case.get_val(f'quadrature_{scenario}.J'))
+    values['wheel_z'] = values['q_W'] if 'q_W' in values else values['z_W']
+    return Trajectory(t=values.pop('time'), values=values, J=J,
+                      info={'method': 'collocation', 'label': label})

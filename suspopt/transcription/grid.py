@@ -1,0 +1,90 @@
+"""The collocation grid: Radau nodes and quadrature weights, and the automatic grid.
+
+``transcription.segments = "auto"`` picks the number of uniform segments of a scenario
+from its horizon, the model's fastest mode and the road's content:
+
+    f = max(f_hop, min(v n_road, 2 f_hop)),     segments = ceil(T f P / order),
+
+with ``f_hop = max_c sqrt((k_S,max + k_T + k_R,max / t²) / m) / 2π`` the stiffest
+wheel-hop frequency over the design box (the fastest mode of the half and full car),
+``n_road`` the road's highest significant spatial frequency
+(:meth:`~suspopt.road.RoadProfile.max_frequency`) and ``P = 12.5`` collocation nodes per
+period of ``f``. Road content above twice the wheel-hop frequency reaches the objective
+only through the tyre's filtering and is not resolved. On the paper's car and road this
+gives 91 segments of order 5 (the measured minimum meeting SPEC's 0.1 % is about 80 × 5,
+``benchmarks/grid_convergence.py``); every study checks the grid against time marching.
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from dymos.utils.lgr import lgr
+
+if TYPE_CHECKING:  # pragma: no cover
+    from suspopt.config import Scenario, StudyConfig
+
+#: collocation nodes per period of the fastest resolved frequency (see the module doc)
+NODES_PER_PERIOD = 12.5
+#: road content above this multiple of the wheel-hop frequency is not resolved
+ROAD_FREQUENCY_CAP = 2.0
+
+
+def radau_grid(segments: int, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes (phase τ in [-1, 1]) and quadrature weights (in τ) of Dymos' compressed Radau
+    grid of ``segments`` uniform segments: each segment has the ``order`` LGR points and
+    its right end (weight zero: not a collocation point), which repeats the next segment's
+    first node. ``weights @ g(nodes)`` is what Radau collocation integrates ``x' = g`` to."""
+    x, w = lgr(order, include_endpoint=True)
+    ends = np.linspace(-1.0, 1.0, segments + 1)
+    half = 0.5 * np.diff(ends)[:, None]
+    return (ends[:-1, None] + half * (x + 1.0)).ravel(), (half * w).ravel()
+
+
+def radau_quadrature_weights(segments: int, order: int, duration: float) -> np.ndarray:
+    """Quadrature weight [s] of every node of the compressed Radau grid over ``duration``
+    (see :func:`radau_grid`)."""
+    return radau_grid(segments, order)[1] * (0.5 * duration)
+
+
+def wheel_hop_frequency(config: 'StudyConfig') -> float:
+    """The stiffest wheel-hop frequency over the design box [Hz] (the fastest mode)."""
+    v, design = config.vehicle, config.design
+    layout = v.layout()
+    f = 0.0
+    for c in layout.corners:
+        axle = v.axles[c.axle]
+        ks = [design[n].upper for n in design.names
+              if n.startswith('k_S') and n[3] == str(c.axle + 1)]
+        kr = [design[n].upper for n in design.names if n == f'k_R{c.axle + 1}']
+        k = max(ks) + axle.tyre_stiffness
+        if kr and axle.track > 0.0:
+            k += kr[0] / axle.track**2
+        f = max(f, math.sqrt(k / axle.wheel_mass) / (2.0 * math.pi))
+    return f
+
+
+def auto_segments(config: 'StudyConfig', scenario: 'Scenario', order: int) -> int:
+    """The automatic number of segments of ``scenario`` (see the module docstring)."""
+    from suspopt.road import road_tracks
+    f_hop = wheel_hop_frequency(config)
+    layout = config.layout()
+    tracks = road_tracks(scenario.road, layout.n_tracks, layout.track_separation())
+    f_road = scenario.speed * max(r.max_frequency() for r in tracks)
+    f = max(f_hop, min(f_road, ROAD_FREQUENCY_CAP * f_hop))
+    return max(2, math.ceil(scenario.horizon * f * NODES_PER_PERIOD / order))
+
+
+def resolve_segments(config: 'StudyConfig', scenario: 'Scenario', segments: Any) -> int:
+    """The number of segments of a scenario: as given, or :func:`auto_segments`."""
+    if segments == 'auto':
+        return auto_segments(config, scenario, scenario.order)
+    return int(segments)
+
+
+def nlp_size(config: 'StudyConfig', scenario: 'Scenario') -> int:
+    """Number of NLP variables of one scenario (discretized states), before building it."""
+    layout = config.layout()
+    n_states = 2 * (2 + (1 if layout.has_roll else 0) + layout.n)
+    return (scenario.segments * scenario.order + 1) * n_states

@@ -1,0 +1,364 @@
+"""The NLP of a study: every scenario's phase sharing one design (paper eq. 14; SPEC §5-§6).
+
+:class:`VehicleProblem` builds, from a :class:`~suspopt.config.StudyConfig`, one Dymos
+trajectory with one Radau phase per scenario (:mod:`suspopt.transcription.phase`),
+
+* the design variables as trajectory parameters scaled to [0, 1] by their bounds
+  (ref0 = lower, ref = upper), shared by all phases;
+* each scenario's objective terms ``J_k`` by its grid's own Radau quadrature of the
+  integrands ``dJ_dt`` (:class:`~suspopt.models.objective.ObjectiveQuadratureComp`): the
+  value integrated states would reach, without their variables and defects; and its
+  normalized weighted sum ``f_s = Σ w_k J_k / s_k``;
+* the objective ``Σ_s w_s f_s`` (``aggregate = "sum"``) or the worst case ``t`` with
+  ``f_s ≤ t`` (``"max"``, epigraph form);
+* :class:`~suspopt.driver.IpoptDriver` solving states and design together with the exact
+  sparse constraint Jacobian; the coloring is cached by model structure (:mod:`suspopt.cache`).
+
+With ``optimize_design=False`` the design is held fixed and IPOPT only solves the
+collocation equations: this is how one design is *evaluated* by collocation.
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import dymos as dm
+import numpy as np
+import openmdao.api as om
+
+from suspopt import cache
+from suspopt.config import DESIGN_UNITS, StudyConfig, design_kind
+from suspopt.driver import IpoptDriver, IterationInfo
+from suspopt.errors import ModelError
+from suspopt.models.objective import (ObjectiveQuadratureComp, ScenarioObjectiveComp,
+                                      WeightedObjectiveComp, WorstCaseGapComp)
+from suspopt.trajectory import Trajectory
+from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
+from suspopt.transcription.phase import (FIDELITIES, build_phase, state_defs,
+                                         timeseries_names, vehicle_spec)
+
+#: scales of the objective terms, one table per scenario (term → s_k)
+Scales = tuple[dict[str, float], ...]
+
+
+@dataclass
+class SolveResult:
+    """What one IPOPT solve produced (terms: one table per scenario)."""
+
+    fidelity: str
+    design: dict[str, float]
+    objective: float
+    scenario_objectives: list[float]
+    terms: list[dict[str, float]]
+    scales: list[dict[str, float]]
+    success: bool
+    status: str
+    iterations: int
+    function_evaluations: int
+    gradient_evaluations: int
+    times: dict[str, float]
+    multibody_calls: dict[str, int] = field(default_factory=dict)
+    coloring_from_cache: bool = False
+    history: list[IterationInfo] = field(default_factory=list)
+    message: str = ''
+    interrupted: bool = False
+
+
+def multibody_modules(config: StudyConfig) -> dict[str, Any]:
+    """One multibody module per distinct mechanism of the car (shared by its corners)."""
+    from suspopt.multibody.suspension import SuspensionModule
+    names = dict.fromkeys(ax.mechanism for ax in config.vehicle.axles)
+    return {n: SuspensionModule(n) for n in names}
+
+
+class VehicleProblem:
+    """A set-up problem of one fidelity for one study description (all its scenarios).
+
+    Parameters
+    ----------
+    config : the study description.
+    fidelity : ``'low'`` or ``'mixed'`` (multibody modules at the corners).
+    scales : normalization ``s_k`` of the objective terms, one table per scenario.
+    optimize_design : False holds every design variable fixed (a problem only for
+        evaluations); otherwise those with ``optimize = true`` in the config are free.
+    recorder : path of an SQLite case recorder, or None.
+    progress : callable receiving an :class:`IterationInfo` after every IPOPT iteration.
+    use_cache : reuse/save the total coloring in the coloring cache.
+    """
+
+    def __init__(self, config: StudyConfig, fidelity: str, scales: Scales, *,
+                 optimize_design: bool = True, recorder: str | Path | None = None,
+                 progress: Callable[[IterationInfo], None] | None = None,
+                 use_cache: bool = True):
+        if fidelity not in FIDELITIES:
+            raise ValueError(f"fidelity must be one of {FIDELITIES}, got {fidelity!r}")
+        t0 = time.perf_counter()
+        self.config, self.fidelity = config, fidelity
+        self.scenarios = config.scenarios()
+        if len(scales) != len(self.scenarios):
+            raise ValueError(f'scales for {len(scales)} scenarios, the study has '
+                             f'{len(self.scenarios)}')
+        self.scales = tuple(dict(s) for s in scales)
+        self.terms_names = config.terms()
+        self.design_names = config.design_names()
+        self.optimize_design = optimize_design
+        self.opt_names = [n for n in self.design_names
+                          if optimize_design and config.design[n].optimize]
+        self._work_dir = tempfile.mkdtemp(prefix='suspopt-om-')
+        self.modules = multibody_modules(config) if fidelity == 'mixed' else {}
+        nt = len(self.terms_names)
+
+        p = self.problem = om.Problem(reports=False, work_dir=self._work_dir)
+        traj = self.traj = p.model.add_subsystem('traj', dm.Trajectory())
+        self.phases, self.specs, self._quadrature = [], [], []
+        for i, sc in enumerate(self.scenarios):
+            spec = vehicle_spec(config, sc, fidelity, self.modules)
+            phase = traj.add_phase(f's{i}', build_phase(spec, fidelity, sc))
+            self.phases.append(phase)
+            self.specs.append(spec)
+            self._quadrature.append(radau_quadrature_weights(sc.segments, sc.order, sc.horizon))
+        for name in self.design_names:
+            dv = config.design[name]
+            span = dv.upper - dv.lower if dv.upper > dv.lower else max(abs(dv.lower), 1.0)
+            traj.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[design_kind(name)],
+                               opt=True, lower=dv.lower, upper=dv.upper, ref0=dv.lower,
+                               ref=dv.lower + span, static_target=True)
+        for i, sc in enumerate(self.scenarios):
+            p.model.add_subsystem(f'quadrature_{i}', ObjectiveQuadratureComp(
+                weights=self._quadrature[i], terms=nt))
+            p.model.add_subsystem(f'objective_{i}', WeightedObjectiveComp(terms=nt))
+            # straight from the ODE: the timeseries then is on no derivative path
+            p.model.connect(f'traj.s{i}.rhs_all.dJ_dt', f'quadrature_{i}.dJ_dt')
+            p.model.connect(f'quadrature_{i}.J', f'objective_{i}.J')
+        n_sc = len(self.scenarios)
+        self.aggregate = config.objective.aggregate if n_sc > 1 else 'sum'
+        if self.aggregate == 'max':
+            ivc = p.model.add_subsystem('bound', om.IndepVarComp())
+            ivc.add_output('t', val=1.0)
+            p.model.add_subsystem('worst', WorstCaseGapComp(n=n_sc))
+            for i in range(n_sc):
+                p.model.connect(f'objective_{i}.f', f'worst.f{i}')
+            p.model.connect('bound.t', 'worst.t')
+            p.model.add_design_var('bound.t', lower=0.0, ref=1.0)
+            p.model.add_constraint('worst.gap', upper=0.0, ref=1.0)
+            p.model.add_objective('bound.t')
+            self._objective = 'bound.t'
+        else:
+            p.model.add_subsystem('objective', ScenarioObjectiveComp(
+                weights=tuple(sc.weight for sc in self.scenarios)))
+            for i in range(n_sc):
+                p.model.connect(f'objective_{i}.f', f'objective.f{i}')
+            p.model.add_objective('objective.f')
+            self._objective = 'objective.f'
+
+        self.cache_key = cache.coloring_key(config, fidelity)
+        self.use_cache = use_cache
+        cached = cache.load(self.cache_key) if use_cache else None
+        self.coloring_from_cache = cached is not None
+        opt = config.optimizer
+        self.driver = IpoptDriver(p, max_iter=opt.max_iter, tol=opt.tol,
+                                  print_level=opt.print_level, progress=progress,
+                                  watch=[self.design_var(n) for n in self.design_names],
+                                  coloring=cached, opt_settings=opt.options)
+
+        self.recorder_path = None
+        if recorder is not None:
+            self.recorder_path = Path(recorder).resolve()
+            rec = om.SqliteRecorder(str(self.recorder_path), record_viewer_data=False)
+            p.add_recorder(rec)
+            p.recording_options['includes'] = ['*']
+
+        # 'auto' sets up both derivative directions: the driver colors the constraint
+        # Jacobian forward and gets the objective gradient by one reverse solve
+        p.setup(mode='auto', check=False)
+        self.set_weights(config.objective.weights)
+        for i, s in enumerate(self.scales):
+            p.set_val(f'objective_{i}.scales', np.array([s[t] for t in self.terms_names]))
+        for phase, sc in zip(self.phases, self.scenarios):
+            phase.set_time_val(initial=0.0, duration=sc.horizon)
+        self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
+        p.final_setup()
+        for phase, sc in zip(self.phases, self.scenarios):
+            grid = phase.options['transcription'].grid_data
+            nodes = radau_grid(sc.segments, sc.order)[0]
+            if grid.node_ptau.shape != nodes.shape or not np.allclose(grid.node_ptau, nodes):
+                # the objective's quadrature must be the phase's own grid
+                raise ModelError('internal error: objective quadrature does not match the grid')
+        self.times = {'setup_s': time.perf_counter() - t0}
+
+    # ---------------------------------------------------------------- names and values
+    @staticmethod
+    def design_var(name: str) -> str:
+        """The NLP's name of a design variable."""
+        return f'traj.parameters:{name}'
+
+    def set_weights(self, weights: dict[str, float]) -> None:
+        """The objective weights w_k by term (inputs of the objective: a new weighting
+        needs no new setup or coloring, e.g. along a Pareto front)."""
+        w = np.array([float(weights.get(t, 0.0)) for t in self.terms_names])
+        for i in range(len(self.scenarios)):
+            self.problem.set_val(f'objective_{i}.weights', w)
+
+    def set_design(self, design: dict[str, float]) -> None:
+        """Set the design (every variable) as the starting point / fixed design."""
+        for name in self.design_names:
+            self.problem.set_val(self.design_var(name), float(design[name]),
+                                 units=DESIGN_UNITS[design_kind(name)])
+
+    def design(self) -> dict[str, float]:
+        return {n: float(self.problem.get_val(self.design_var(n),
+                                              units=DESIGN_UNITS[design_kind(n)])[0])
+                for n in self.design_names}
+
+    def set_initial_guess(self, trajs: list[Trajectory | None] | Trajectory | None) -> None:
+        """Initialize the discretized states of every scenario from a trajectory (or zeros).
+
+        The first node is the fixed initial state and is always zero (SPEC §1), whatever
+        the guess starts from."""
+        if not isinstance(trajs, (list, tuple)):
+            trajs = [trajs] * len(self.scenarios)
+        for i, (phase, spec, sc, traj) in enumerate(zip(self.phases, self.specs,
+                                                        self.scenarios, trajs)):
+            for name, _, _, _, shape in state_defs(spec):
+                if traj is None:
+                    t, vals = np.array([0.0, sc.horizon]), np.zeros((2,) + shape)
+                else:  # collocation trajectories repeat the segment-boundary times
+                    t, keep = np.unique(traj.t, return_index=True)
+                    vals = np.asarray(traj[name])[keep].reshape((t.size,) + shape)
+                phase.set_state_val(name, vals, time_vals=t)
+                path = f'traj.s{i}.states:{name}'
+                arr = self.problem.get_val(path)
+                arr[0] = 0.0
+                self.problem.set_val(path, arr)
+
+    def terms(self, scenario: int = 0) -> dict[str, float]:
+        J = self.problem.get_val(f'quadrature_{scenario}.J')
+        return {t: float(v) for t, v in zip(self.terms_names, J)}
+
+    def scenario_objective(self, scenario: int = 0) -> float:
+        return float(self.problem.get_val(f'objective_{scenario}.f')[0])
+
+    def objective(self) -> float:
+        """The NLP's objective: Σ w_s f_s, or the worst case max_s f_s."""
+        f = [self.scenario_objective(i) for i in range(len(self.scenarios))]
+        if self.aggregate == 'max':
+            return max(f)
+        return float(sum(sc.weight * fi for sc, fi in zip(self.scenarios, f)))
+
+    def timeseries(self, scenario: int = 0) -> Trajectory:
+        """The collocation solution of one scenario at its nodes."""
+        p, spec = self.problem, self.specs[scenario]
+        ts = f'traj.s{scenario}.timeseries.'
+        t = p.get_val(ts + 'time')[:, 0]
+        values = {}
+        for name, _, _, _, shape in state_defs(spec):
+            val = p.get_val(ts + name)
+            values[name] = val[:, 0] if shape == (1,) else val
+        for name in timeseries_names(spec, self.fidelity):
+            val = p.get_val(ts + name)
+            values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
+        values['wheel_z'] = values['q_W' if self.fidelity == 'mixed' else 'z_W']
+        info = {'fidelity': self.fidelity, 'method': 'collocation',
+                'scenario': self.scenarios[scenario].name}
+        if self.fidelity == 'mixed':
+            info['max_constraint_residual_m'] = self.constraint_residual(values)
+        J = np.array([self.terms(scenario)[k] for k in self.terms_names])
+        return Trajectory(t=t, values=values, J=J, info=info)
+
+    def constraint_residual(self, values: dict[str, np.ndarray]) -> float:
+        """Largest position-constraint violation of the modules along a solution [m]."""
+        worst = 0.0
+        axles = self.config.vehicle.axles
+        for c, corner in enumerate(self.config.layout().corners):
+            mod = self.modules[axles[corner.axle].mechanism]
+            kin = mod.kinematics(values['z_W'][:, c], values['v_W'][:, c])
+            worst = max(worst, mod.constraint_residual(kin.state))
+        return worst
+
+    def stats(self) -> dict[str, Any]:
+        """Setup and coloring times, whether the coloring came from the cache, and all
+        multibody solver calls so far (for the results files)."""
+        c = self.driver.coloring
+        return {'setup_s': self.times['setup_s'],
+                'coloring_s': self.times.get('coloring_s', 0.0),
+                'coloring_from_cache': self.coloring_from_cache,
+                'nlp': {'variables': self.driver.layout().n,
+                        'constraints': self.driver.layout().m,
+                        'jacobian_nonzeros': c.nnz if c else 0,
+                        'colors': c.n_colors if c else 0},
+                'multibody_calls_total': self.multibody_calls()}
+
+    def multibody_calls(self) -> dict[str, int]:
+        """Batched multibody solver calls so far (position analyses, augmented solves)."""
+        out: dict[str, int] = {}
+        for m in self.modules.values():
+            for k, v in m.solver.calls.items():
+                out[k] = out.get(k, 0) + v
+        return out
+
+    # ---------------------------------------------------------------- solve
+    def solve(self, optimize: bool = True) -> SolveResult:
+        """Run IPOPT: optimize the free design variables, or (``optimize=False``) only solve
+        the collocation equations at the current design."""
+        p, drv = self.problem, self.driver
+        calls0 = self.multibody_calls()
+        free = self.opt_names if optimize else []
+        pinned = [self.design_var(n) for n in self.design_names if n not in free]
+        if self.aggregate == 'max' and not free:
+            pinned.append('bound.t')
+        t0 = time.perf_counter()
+        try:
+            p.run_model()
+        except om.AnalysisError as err:
+            raise ModelError(f'model evaluation failed at the starting point: {err}') from None
+        if self.aggregate == 'max':  # start the bound on the worst case
+            p.set_val('bound.t', max(self.scenario_objective(i)
+                                     for i in range(len(self.scenarios))))
+        t1 = time.perf_counter()
+        computed = drv.coloring is None
+        coloring = drv.total_coloring()
+        t2 = time.perf_counter()
+        if computed and coloring is not None and self.use_cache:
+            cache.store(self.cache_key, coloring)  # for other problems of this structure
+        drv.run(pinned=pinned)
+        t3 = time.perf_counter()
+        success = drv.status in (0, 1)
+        self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
+        times = {'coloring_s': t2 - t1, 'solve_s': t3 - t2 + (t1 - t0)}
+        msg = drv.status_message
+        if drv.last_error and not success:
+            msg += f' (last model error: {drv.last_error})'
+        n_sc = len(self.scenarios)
+        return SolveResult(
+            fidelity=self.fidelity, design=self.design(), objective=self.objective(),
+            scenario_objectives=[self.scenario_objective(i) for i in range(n_sc)],
+            terms=[self.terms(i) for i in range(n_sc)], scales=[dict(s) for s in self.scales],
+            success=success, status=drv.status_message,
+            iterations=len(drv.history) - 1 if drv.history else 0,
+            function_evaluations=drv.n_function_evals,
+            gradient_evaluations=drv.n_gradient_evals, times=times,
+            multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},
+            coloring_from_cache=self.coloring_from_cache, history=list(drv.history), message=msg,
+            interrupted=drv.interrupted)
+
+    def record(self, label: str) -> None:
+        """Record every output (trajectories included) as case ``label`` in the recorder."""
+        if self.recorder_path is not None:
+            self.problem.record(label)
+
+    def cleanup(self) -> None:
+        """Close the recorder and remove OpenMDAO's scratch directory."""
+        try:
+            self.problem.cleanup()
+        finally:
+            shutil.rmtree(self._work_dir, ignore_errors=True)
+
+    def __enter__(self) -> 'VehicleProblem':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.cleanup()
