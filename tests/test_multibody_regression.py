@@ -23,7 +23,7 @@ _spec.loader.exec_module(reference)
 def test_refactored_solver_reproduces_the_recorded_outputs(name):
     recorded = json.loads(reference.path(name).read_text())
     now = reference.compute(name)
-    assert set(now) == set(recorded['outputs'])
+    assert set(recorded['outputs']) <= set(now)
     worst = {}
     for key, ref in recorded['outputs'].items():
         ref, new = np.asarray(ref), np.asarray(now[key])
