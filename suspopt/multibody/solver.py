@@ -291,6 +291,13 @@ class PlanarMultibodySolver:
             Cq[:, g.flat] = J.reshape(N, -1)
         return Cq.reshape(N, self.m, -1)[:, :, :self.n]
 
+    def constraint_rate(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None,
+                        Cq: np.ndarray | None = None) -> np.ndarray:
+        """``Ċ = C_q q̇ - ν`` (N, m); zero at consistent velocities."""
+        Cdot = np.einsum('nij,nj->ni', self.constraint_jacobian(q) if Cq is None else Cq, qd)
+        nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
+        return Cdot if nu is None else Cdot - nu
+
     def gamma(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None) -> np.ndarray:
         """Right-hand side of the acceleration constraints ``γ = -(C_q q̇)_q q̇ - C_tt``,
         (N, m)."""
@@ -407,11 +414,8 @@ class PlanarMultibodySolver:
         rhs_c = self.gamma(q, qd, motion)
         if baumgarte is not None:
             alpha, beta = baumgarte
-            Cdot = np.einsum('nij,nj->ni', Cq, qd)
-            nu = self._nu(self._drives(motion, N), N)
-            if nu is not None:
-                Cdot = Cdot - nu
-            rhs_c = rhs_c - 2.0 * alpha * Cdot - beta**2 * self.constraints(q, motion)
+            rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
+                     - beta**2 * self.constraints(q, motion))
         if method == 'schur':
             CMi = Cq * (1.0 / self.mass_diag)
             lam = _batched_solve(CMi @ Cq.transpose(0, 2, 1),
@@ -612,22 +616,32 @@ class PlanarMultibodySolver:
     def _check_travel(self, travel: tuple[float, float]) -> None:
         """The linkage passes its wheel travel range (the single independent coordinate,
         from the reference pose) without locking: position analysis by continuation in
-        :data:`TRAVEL_STEPS` steps each way, and no toggle (:meth:`velocities`'s
-        sensitivity ≤ :data:`TOGGLE_SENSITIVITY`). A ConfigError names the travel where
-        it locks and the joints whose constraints become dependent there."""
+        :data:`TRAVEL_STEPS` steps each way, each started from the last pose moved along
+        its tangent. It locks where Newton's method fails, where the linkage moves more
+        than :data:`TOGGLE_SENSITIVITY` times faster than at its reference pose (a toggle,
+        see :meth:`velocities`), or where the converged pose is farther from the
+        prediction than the predicted step itself (no nearby pose: Newton found another
+        assembly). A ConfigError names the travel and the joints that lock."""
         none = [None] * len(self.joint_groups)
         ind0 = self.q0[self.ind]
         for end in (travel[1], travel[0]):
-            q = self.q0[None]
-            for z in np.linspace(0.0, end, TRAVEL_STEPS + 1)[1:]:
+            q, qd = self.q0[None], self.velocities(self.q0[None], np.ones((1, 1)))
+            zs = np.linspace(0.0, end, TRAVEL_STEPS + 1)
+            for z, dz in zip(zs[1:], np.diff(zs)):
+                step = qd * dz
                 try:
-                    q_new = self._positions(np.array([ind0 + z]), q, none)
-                    self.velocities(q_new, np.ones((1, 1)), max_sensitivity=TOGGLE_SENSITIVITY)
+                    q_new = self._positions(np.array([ind0 + z]), q + step, none)
+                    if np.max(np.abs(q_new - q - step)) > np.max(np.abs(step)):
+                        raise MultibodyError('no pose near the last one: the end of its '
+                                             'range of motion')
+                    qd = self.velocities(q_new, np.ones((1, 1)),
+                                         max_sensitivity=TOGGLE_SENSITIVITY)
                 except MultibodyError as err:
                     raise ConfigError(
                         f'{self.mechanism.name}: suspension.travel: the linkage locks at '
                         f'wheel travel {z:+.4g} m, inside its travel range [{travel[0]:g}, '
-                        f'{travel[1]:g}] m (joints {self._locking_joints(q)}): {err}') from None
+                        f'{travel[1]:g}] m (joints {self._locking_joints(q)}): '
+                        + str(err).removeprefix(f'{self.mechanism.name}: ')) from None
                 q = q_new
 
     def _locking_joints(self, q: np.ndarray) -> list[str]:

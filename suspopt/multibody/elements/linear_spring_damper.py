@@ -44,7 +44,8 @@ class LinearSpringDamper:
         common = read_spring_common(rd, data, where)
         axis = rd.unit_axis(data, 'axis', where)
         m0, m1 = common['markers']
-        if m0 in rd.markers and m1 in rd.markers and np.all(np.isfinite(axis)):
+        if (m0 in rd.markers and m1 in rd.markers and np.all(np.isfinite(axis))
+                and rd.markers[m0][0] != rd.markers[m1][0]):
             (x0, z0), (x1, z1) = rd.markers[m0][1], rd.markers[m1][1]
             ref = axis[0] * (x1 - x0) + axis[1] * (z1 - z0)
             if not ref > 0.0:
