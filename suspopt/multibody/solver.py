@@ -593,6 +593,19 @@ class PlanarMultibodySolver:
                 'the edge of its range of motion')
         return qd
 
+    def accelerations(self, q: np.ndarray, qd: np.ndarray, qdd_ind: np.ndarray,
+                      Cq: np.ndarray | None = None, motion: Motion | None = None) -> np.ndarray:
+        """Acceleration analysis: all accelerations (N, n) from the independent ones,
+        ``C_q q̈ = γ`` at consistent positions and velocities (no forces involved)."""
+        qdd = np.zeros_like(q)
+        qdd[:, self.ind] = qdd_ind
+        if Cq is None:
+            Cq = self.constraint_jacobian(q)
+        rhs = self.gamma(q, qd, motion) - np.einsum('nij,nj->ni', Cq[:, :, self.ind],
+                                                    qdd[:, self.ind])
+        qdd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'acceleration analysis')
+        return qdd
+
     def consistent_state(self, q_ind: np.ndarray, qd_ind: np.ndarray,
                          guess: np.ndarray | None = None,
                          motion: Motion | None = None) -> MultibodyState:
