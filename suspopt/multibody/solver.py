@@ -147,6 +147,14 @@ class PlanarMultibodySolver:
         self._joint_group = {name: (g, k) for g in self.joint_groups
                              for k, name in enumerate(g.names)}
         self.prescribed = [name for g in self.joint_groups if g.rheonomic for name in g.names]
+        # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
+        # one matrix (2 nj, m), where that block does not depend on q
+        self._first_force = np.zeros((len(specs), 2, self.m))
+        for g in self.joint_groups:
+            J0 = g.jacobian(q0e[None])[0, :, 0, :, :2]        # (ne, k, 2)
+            self._first_force[g.members[:, None, None], np.arange(2)[:, None],
+                              g.rows[:, None, :]] = J0.transpose(0, 2, 1)
+        self._first_force = self._first_force[:self.nj].reshape(2 * self.nj, self.m)
 
         # force elements: the loads, then [[forces]]
         fspecs = list(mechanism.loads) + list(mechanism.forces)
@@ -158,6 +166,11 @@ class PlanarMultibodySolver:
             self.force_groups.append(type(members[0]).group(members, layout))
         self._force_group = {name: (gi, k) for gi, g in enumerate(self.force_groups)
                              for k, name in enumerate(g.names)}
+        for g in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
+            g.all_zero = not any(np.any(v) for v in g.defaults.values())
+            scatter = np.zeros((g.bodies.size, 3, nb + 1, 3))
+            scatter[np.arange(g.bodies.size), :, g.bodies.ravel()] = np.eye(3)
+            g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, :self.n]
         # point-load groups: the columns of the ``loads`` array of their elements
         self._load_columns = {gi: np.array([self.load_names.index(n) for n in g.names])
                               for gi, g in enumerate(self.force_groups)
@@ -254,13 +267,12 @@ class PlanarMultibodySolver:
         out: list[dict[str, np.ndarray] | None] = []
         for gi, g in enumerate(self.force_groups):
             from_loads = loads is not None and gi in self._load_columns
-            if gi not in given and not from_loads and not any(
-                    np.any(v) for v in g.defaults.values()):
+            if gi not in given and not from_loads and g.all_zero:
                 out.append(None)
                 continue
-            values = {p: np.tile(v, (N, 1)) for p, v in g.defaults.items()}
-            if from_loads:
-                values['magnitude'] = np.asarray(loads, dtype=float)[:, self._load_columns[gi]]
+            values = {p: (np.asarray(loads, dtype=float)[:, self._load_columns[gi]]
+                          if from_loads and p == 'magnitude' else np.tile(v, (N, 1)))
+                      for p, v in g.defaults.items()}
             for p, items in given.get(gi, {}).items():
                 for k, val in items:
                     values[p][:, k] = np.broadcast_to(np.asarray(val, dtype=float), (N,))
@@ -360,10 +372,8 @@ class PlanarMultibodySolver:
         if active:
             qe = self._ext(q)
             qde = None if qd is None else self._ext(qd)
-            Qe = np.zeros((N, self.nb + 1, 3))
             for grp, v in active:
-                np.add.at(Qe, (slice(None), grp.bodies), grp.generalized_force(qe, qde, v))
-            Q += Qe[:, :self.nb].reshape(N, self.n)
+                Q += grp.generalized_force(qe, qde, v).reshape(N, -1) @ grp.scatter
         return Q
 
     def spring(self, name: str, q: np.ndarray, qd: np.ndarray | None = None,
@@ -449,14 +459,13 @@ class PlanarMultibodySolver:
 
         Joints whose force direction turns with the bodies (prismatic) need the positions
         ``q``; for the others the force follows from ``λ`` alone."""
-        if q is None:
-            moving = [n for g in self.joint_groups if not g.constant_force_jacobian
-                      for n in g.names]
-            if moving:
-                raise ValueError(f'{self.mechanism.name}: the reactions of {moving} depend '
-                                 'on the pose: pass q')
-            q = np.broadcast_to(self.q0, (lam.shape[0], self.n))
-        return self.reactions(q, lam)[:, :self.nj, 0, :2]
+        if q is not None:
+            return self.reactions(q, lam)[:, :self.nj, 0, :2]
+        moving = [n for g in self.joint_groups if not g.constant_force_jacobian for n in g.names]
+        if moving:
+            raise ValueError(f'{self.mechanism.name}: the reactions of {moving} depend on the '
+                             'pose: pass q')
+        return -(lam @ self._first_force.T).reshape(lam.shape[0], self.nj, 2)
 
     def body_reaction(self, body: str, q: np.ndarray, lam: np.ndarray,
                       point: ArrayLike | None = None,

@@ -29,14 +29,11 @@ COORDINATES = ('x', 'z', 'phi')
 
 
 def rot_apply(phi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``A(φ) u`` with broadcasting; ``u`` has a trailing axis of 2."""
-    c, s = np.cos(phi), np.sin(phi)
-    u0, u1 = u[..., 0], u[..., 1]
-    x = c * u0 - s * u1
-    out = np.empty(x.shape + (2,))
-    out[..., 0] = x
-    out[..., 1] = s * u0 + c * u1
-    return out
+    """``A(φ) u = cos φ u + sin φ perp(u)`` with broadcasting; ``u`` has a trailing axis of 2."""
+    return np.cos(phi)[..., None] * u + np.sin(phi)[..., None] * (u[..., ::-1] * _FLIP)
+
+
+_FLIP = np.array([-1.0, 1.0])
 
 
 def perp(v: np.ndarray) -> np.ndarray:

@@ -47,6 +47,7 @@ class FixedGroup(JointGroup):
         pts = np.array([cg[k] if s.point is None else s.point for k, s in enumerate(specs)],
                        dtype=float).reshape(-1, 1, 2)
         self.u = layout.local(self.bodies, pts)
+        self.at_cg = not np.any(self.u)
         ang = layout.angle0(self.bodies)
         self.angle = (ang[:, 0] - ang[:, 1]).reshape(-1)
 
@@ -63,20 +64,26 @@ class FixedGroup(JointGroup):
         J[:, :, 1, 2, 2] = -1.0
         return J
 
+    def _arms(self, q):
+        """``A u`` of both bodies; zero for welds at the CG (``fixed = true`` bodies)."""
+        if self.at_cg:
+            return np.zeros(q.shape[:-1] + (2,))
+        return rot_apply(q[..., 2], self.u)
+
     def residual(self, qe, drive=None):
         q = qe[:, self.bodies]
-        return self._residual(q, rot_apply(q[..., 2], self.u))
+        return self._residual(q, self._arms(q))
 
     def jacobian(self, qe):
-        return self._jacobian(rot_apply(qe[:, self.bodies, 2], self.u))
+        return self._jacobian(self._arms(qe[:, self.bodies]))
 
     def residual_jacobian(self, qe, drive=None):
         q = qe[:, self.bodies]
-        arm = rot_apply(q[..., 2], self.u)
+        arm = self._arms(q)
         return self._residual(q, arm), self._jacobian(arm)
 
     def gamma(self, qe, qde, drive=None):
-        g = rot_apply(qe[:, self.bodies, 2], self.u) * qde[:, self.bodies, 2, None] ** 2
+        g = self._arms(qe[:, self.bodies]) * qde[:, self.bodies, 2, None] ** 2
         out = np.zeros(g.shape[:2] + (3,))
         out[..., :2] = g[:, :, 0] - g[:, :, 1]
         return out
