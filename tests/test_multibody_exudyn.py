@@ -214,7 +214,7 @@ MP_BODIES = {'W': (99.574463, 5.961650, (0.522914, 0.0)),
 MP_PIVOT, MP_BALL, MP_TOP = (0.159096, -0.115752), (0.452878, -0.10414), (0.330958, 0.46863)
 MP_SEAT, MP_PATCH = (0.409698, -0.00127), (0.54, -0.3186)
 MP_K, MP_C, MP_PEAK = 3.0e4, 1500.0, 1500.0
-MP_T_END = 1.0
+MP_T_END = 0.6
 
 
 def mp_tyre_force(t: float) -> float:

@@ -12,8 +12,8 @@ slides on the strut, whose axis always passes through the top mount T, and B kee
 signed distance ``d = e × (B - T)`` from that axis (both are fixed in the upright), so
 with β the angle of ``B - T`` (pointing down, against the axis direction e)
 ``sin(β - α) = d / |B - T|`` gives the axis angle ``α = β - π + asin(d / |B - T|)``, the
-upright turns by ``α - α0``, and every upright point follows. Derivatives along θ by central differences
-(h = 1e-6: error ~1e-10).
+upright turns by ``α - α0``, and every upright point follows. Derivatives along θ by
+central differences (h = 1e-6: error ~1e-10).
 """
 from __future__ import annotations
 
@@ -187,19 +187,19 @@ def test_a_wrong_strut_angle_is_caught(monkeypatch):
 @pytest.mark.parametrize('method', ['partitioned', 'baumgarte'])
 def test_free_oscillation_conserves_energy(mech, method):
     """Spring 30 kN/m along the strut, no damping, released at 40 mm of bump: kinetic plus
-    spring energy stays constant over 2 s (about 5 periods) and the constraints hold."""
+    spring energy stays constant over 1 s (about 2.5 periods) and the constraints hold."""
     s = PlanarMultibodySolver(mech)
     params = {'strut_spring': {'stiffness': 3.0e4, 'damping': 0.0}}
-    t = np.linspace(0.0, 2.0, 401)
-    tr = simulate_mechanism(s, (0.0, 2.0), [s.q0[1] + 0.04], [0.0], params=params,
+    t = np.linspace(0.0, 1.0, 201)
+    tr = simulate_mechanism(s, (0.0, 1.0), [s.q0[1] + 0.04], [0.0], params=params,
                             method=method, t_eval=t)
     E = s.kinetic_energy(tr.qd) + s.potential_energy(tr.q, params)
     z = tr.q[:, 1] - s.q0[1]
     assert z.min() < -0.035 and z.max() > 0.035                 # it swung through
     crossings = np.count_nonzero(np.diff(np.sign(z)))
-    assert crossings >= 8
+    assert crossings >= 4
     drift = np.max(np.abs(E / E[0] - 1.0))
-    print(f'\nMacPherson free oscillation ({method}): {crossings // 2} periods, energy '
+    print(f'\nMacPherson free oscillation ({method}): {crossings / 2:g} periods, energy '
           f'drift {drift:.1e}, constraint residual {tr.info["max_constraint_residual"]:.1e}')
     assert drift < 1e-7
     assert tr.info['max_constraint_residual'] < 1e-9
@@ -222,5 +222,5 @@ def test_a_strut_that_jams_within_the_travel_is_refused(mech):
     with pytest.raises(ConfigError) as err:
         PlanarMultibodySolver(jammed)
     msg = str(err.value)
-    assert 'suspension.travel: the linkage locks at wheel travel +0.01 m' in msg, msg
+    assert 'suspension.travel: the linkage locks between wheel travel +0 and +0.01 m' in msg, msg
     assert "'strut'" in msg and 'inside its travel range [-0.1, 0.1] m' in msg

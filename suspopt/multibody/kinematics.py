@@ -31,7 +31,8 @@ from suspopt.multibody.solver import PlanarMultibodySolver
 #: the study (SPEC §1)
 DEFAULT_SPRING_RATE = 30000.0
 #: columns of the table: key, heading, unit scale for printing
-COLUMNS = (('travel', 'wheel travel [mm]', 1e3), ('spring_deflection', 'spring deflection [mm]', 1e3),
+COLUMNS = (('travel', 'wheel travel [mm]', 1e3),
+           ('spring_deflection', 'spring deflection [mm]', 1e3),
            ('motion_ratio', 'motion ratio [-]', 1.0), ('wheel_rate', 'wheel rate [N/mm]', 1e-3),
            ('camber', 'camber [deg]', 1.0), ('track_change', 'track change [mm]', 1e3))
 

@@ -23,14 +23,12 @@ from pathlib import Path
 from typing import Any
 
 from suspopt.errors import ConfigError
-from suspopt.multibody.elements import (FORCE_TYPES, JOINT_TYPES, FixedJoint,
-                                        LinearSpringDamper, PointLoad, PrescribedJoint,
-                                        PrismaticJoint, RevoluteJoint, SpringDamper, is_spring)
+from suspopt.multibody.elements import (FORCE_TYPES, JOINT_TYPES, FixedJoint, ForceSpec,
+                                        JointSpec, LinearSpringDamper, PointLoad,
+                                        PrescribedJoint, PrismaticJoint, RevoluteJoint,
+                                        SpringDamper, is_spring)
 from suspopt.multibody.elements.base import COORDINATES
 from suspopt.multibody.reading import GROUND, Reader, close
-
-Joint = RevoluteJoint | PrismaticJoint | FixedJoint | PrescribedJoint
-Force = PointLoad | SpringDamper | LinearSpringDamper
 
 #: wheel travel range a suspension file gets when its ``[suspension]`` table names none
 DEFAULT_TRAVEL = (-0.1, 0.1)
@@ -67,12 +65,12 @@ class Mechanism:
 
     name: str
     bodies: tuple[Body, ...]
-    joints: tuple[Joint, ...]
+    joints: tuple[JointSpec, ...]
     markers: tuple[Marker, ...] = ()
     loads: tuple[PointLoad, ...] = ()
     independent: tuple[tuple[str, str], ...] = ()
     gravity: tuple[float, float] = (0.0, 0.0)
-    forces: tuple[Force, ...] = ()
+    forces: tuple[ForceSpec, ...] = ()
     roles: dict[str, str] = field(default_factory=dict, compare=False, hash=False)
     travel: tuple[float, float] | None = field(default=None, compare=False, hash=False)
 
@@ -82,7 +80,7 @@ class Mechanism:
     def marker(self, name: str) -> Marker:
         return next(m for m in self.markers if m.name == name)
 
-    def force(self, name: str) -> Force:
+    def force(self, name: str) -> ForceSpec:
         """The force element (or load) called ``name``."""
         return next(f for f in self.loads + self.forces if f.name == name)
 
@@ -239,7 +237,8 @@ def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list):
     if not isinstance(sus, dict):
         rd.err('suspension', 'must be a table')
         sus = {}
-    rd.table(sus, 'suspension', {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False})
+    rd.table(sus, 'suspension',
+             {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False})
     for key in ('spring_marker', 'wheel_marker'):
         if key in sus:
             rd.marker(sus[key], f'suspension.{key}')

@@ -47,7 +47,7 @@ from suspopt.multibody.mechanism import GROUND, Mechanism
 #: a lock (toggle) position: the travel-range check of a suspension refuses it
 TOGGLE_SENSITIVITY = 100.0
 #: wheel-travel steps of the travel-range check (continuation, each half of the range)
-TRAVEL_STEPS = 20
+TRAVEL_STEPS = 10
 
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
@@ -144,8 +144,6 @@ class PlanarMultibodySolver:
             g.flat = (g.rows[:, None, :, None] * 3 * (nb + 1)
                       + 3 * g.bodies[:, :, None, None] + np.arange(3)).ravel()
             self.joint_groups.append(g)
-        self._joint_group = {name: (g, k) for g in self.joint_groups
-                             for k, name in enumerate(g.names)}
         self.prescribed = [name for g in self.joint_groups if g.rheonomic for name in g.names]
         # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
         # one matrix (2 nj, m), where that block does not depend on q
@@ -197,7 +195,7 @@ class PlanarMultibodySolver:
         # analysis's start, and the reference of the toggle check (see :meth:`velocities`)
         self._tangent0 = -np.linalg.solve(Cq[:, self.dep], Cq[:, self.ind])
         self.sensitivity0 = float(np.max(np.abs(self._tangent0))) or 1.0
-        # ∂q_dep/∂d of the prescribed offsets d (∂C/∂d = -I on their rows)
+        # C_q,dep⁻¹ on the rows of the rheonomic joints (predictor of a driven position)
         self._drive_rows = np.concatenate([g.rows.ravel() for g in self.joint_groups
                                            if g.rheonomic] or [np.zeros(0, dtype=int)])
         E = np.zeros((self.m, self._drive_rows.size))
@@ -213,8 +211,8 @@ class PlanarMultibodySolver:
         return np.concatenate([q.reshape(N, self.nb, 3), np.zeros((N, 1, 3))], axis=1)
 
     def _drives(self, motion: Motion | None, N: int) -> list[np.ndarray | None]:
-        """Per joint group: the prescribed (offset, velocity, acceleration), (3, N, ne, 3),
-        or None (reference pose at rest)."""
+        """Per joint group: its run-time drive values (see ``JointGroup.drive``), or None
+        (a rheonomic joint then holds its reference)."""
         out: list[np.ndarray | None] = [None] * len(self.joint_groups)
         if not motion:
             return out
@@ -223,15 +221,8 @@ class PlanarMultibodySolver:
             raise ValueError(f'{self.mechanism.name}: motion given for {unknown}, which are '
                              f'not prescribed joints (prescribed: {self.prescribed})')
         for gi, g in enumerate(self.joint_groups):
-            if not g.rheonomic or not any(name in motion for name in g.names):
-                continue
-            d = np.zeros((3, N, len(g.names), 3))
-            for k, name in enumerate(g.names):
-                if name in motion:
-                    pm = motion[name]
-                    for c, val in enumerate((pm.offset, pm.velocity, pm.acceleration)):
-                        d[c, :, k] = np.broadcast_to(np.asarray(val, dtype=float), (N, 3))
-            out[gi] = d
+            if g.rheonomic and any(name in motion for name in g.names):
+                out[gi] = g.drive([motion.get(name) for name in g.names], N)
         return out
 
     @staticmethod
@@ -530,10 +521,11 @@ class PlanarMultibodySolver:
         if guess is None:  # the reference pose moved along its tangent
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
-            offsets = [d[0].reshape(N, -1) if d is not None else np.zeros((N, g.rows.size))
-                       for g, d in zip(self.joint_groups, drives) if g.rheonomic]
-            if any(d is not None for d in drives):
-                q[:, self.dep] += np.concatenate(offsets, axis=1) @ self._drive_tangent0.T
+            if any(d is not None for d in drives):  # and along the drives' (-C_q,dep⁻¹ C)
+                q0e = self._ext(self.q0[None].repeat(N, 0))
+                C0 = [g.residual(q0e, d).reshape(N, -1) for g, d in zip(self.joint_groups, drives)
+                      if g.rheonomic]
+                q[:, self.dep] -= np.concatenate(C0, axis=1) @ self._drive_tangent0.T
         else:
             q = guess.copy()
         q[:, self.ind] = q_ind
@@ -643,7 +635,7 @@ class PlanarMultibodySolver:
         than :data:`TOGGLE_SENSITIVITY` times faster than at its reference pose (a toggle,
         see :meth:`velocities`), or where the converged pose is farther from the
         prediction than the predicted step itself (no nearby pose: Newton found another
-        assembly). A ConfigError names the travel and the joints that lock."""
+        assembly). A ConfigError names the travel step and the joints that lock."""
         none = [None] * len(self.joint_groups)
         ind0 = self.q0[self.ind]
         for end in (travel[1], travel[0]):
@@ -660,9 +652,9 @@ class PlanarMultibodySolver:
                                          max_sensitivity=TOGGLE_SENSITIVITY)
                 except MultibodyError as err:
                     raise ConfigError(
-                        f'{self.mechanism.name}: suspension.travel: the linkage locks at '
-                        f'wheel travel {z:+.4g} m, inside its travel range [{travel[0]:g}, '
-                        f'{travel[1]:g}] m (joints {self._locking_joints(q)}): '
+                        f'{self.mechanism.name}: suspension.travel: the linkage locks between '
+                        f'wheel travel {z - dz:+.4g} and {z:+.4g} m, inside its travel range '
+                        f'[{travel[0]:g}, {travel[1]:g}] m (joints {self._locking_joints(q)}): '
                         + str(err).removeprefix(f'{self.mechanism.name}: ')) from None
                 q = q_new
 

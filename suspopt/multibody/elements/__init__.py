@@ -4,6 +4,8 @@ mechanism file. A type is a spec dataclass (its TOML keys and ``read``) and a gr
 entry below."""
 from __future__ import annotations
 
+from typing import Union
+
 from suspopt.multibody.elements.base import ScalarSpringGroup
 from suspopt.multibody.elements.fixed import FixedJoint
 from suspopt.multibody.elements.linear_spring_damper import LinearSpringDamper
@@ -18,12 +20,16 @@ JOINT_TYPES = {t.type: t for t in (RevoluteJoint, PrismaticJoint, FixedJoint, Pr
 #: force types by their ``type`` in ``[[forces]]``
 FORCE_TYPES = {t.type: t for t in (PointLoad, SpringDamper, LinearSpringDamper)}
 
+#: any joint spec, any force spec (type hints)
+JointSpec = Union[tuple(JOINT_TYPES.values())]
+ForceSpec = Union[tuple(FORCE_TYPES.values())]
+
 
 def is_spring(spec: object) -> bool:
     """A force element with a length, rate and tension (the spring queries)."""
     return issubclass(type(spec).group, ScalarSpringGroup)
 
 
-__all__ = ['FORCE_TYPES', 'JOINT_TYPES', 'is_spring', 'FixedJoint', 'LinearSpringDamper',
-           'PointLoad', 'PrescribedJoint', 'PrescribedMotion', 'PrismaticJoint',
-           'RevoluteJoint', 'SpringDamper']
+__all__ = ['FORCE_TYPES', 'ForceSpec', 'JOINT_TYPES', 'JointSpec', 'FixedJoint',
+           'LinearSpringDamper', 'PointLoad', 'PrescribedJoint', 'PrescribedMotion',
+           'PrismaticJoint', 'RevoluteJoint', 'SpringDamper', 'is_spring']

@@ -115,7 +115,8 @@ def axis_projection_quadratic(qe: np.ndarray, qde: np.ndarray, bodies: np.ndarra
     w = qde[:, bodies, 2]
     v = qde[:, bodies, :2] + perp(arm) * w[..., None]
     wa, wb = w[:, :, 0], w[:, :, 1]
-    return (-dot(n, p[:, :, 1] - p[:, :, 0]) * wa**2 + 2.0 * wa * dot(perp(n), v[:, :, 1] - v[:, :, 0])
+    return (-dot(n, p[:, :, 1] - p[:, :, 0]) * wa**2
+            + 2.0 * wa * dot(perp(n), v[:, :, 1] - v[:, :, 0])
             - dot(n, arm[:, :, 1]) * wb**2 + dot(n, arm[:, :, 0]) * wa**2)
 
 
@@ -155,6 +156,11 @@ class JointGroup:
 
     def velocity_term(self, drive: np.ndarray) -> np.ndarray:
         """``ν = -∂C/∂t`` (rheonomic types only)."""
+        raise NotImplementedError
+
+    def drive(self, values: list[Any], N: int) -> np.ndarray:
+        """The run-time values of a rheonomic type's elements (None: at rest at the
+        reference) as one array with a state axis second, passed back to its methods."""
         raise NotImplementedError
 
     def reactions(self, qe: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -281,5 +287,6 @@ def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
                                                                positive=True)}
 
 
-__all__ = ['COORDINATES', 'GROUND', 'ForceGroup', 'JointGroup', 'Layout',
-           'ScalarSpringGroup', 'axis_projection', 'axis_projection_quadratic', 'coincidence_jacobian', 'cross', 'dot', 'perp', 'rot_apply']
+__all__ = ['COORDINATES', 'GROUND', 'ForceGroup', 'JointGroup', 'Layout', 'ScalarSpringGroup',
+           'axis_projection', 'axis_projection_quadratic', 'coincidence_jacobian', 'cross',
+           'dot', 'perp', 'rot_apply']

@@ -75,5 +75,14 @@ class PrescribedGroup(JointGroup):
     def velocity_term(self, drive):
         return drive[1]
 
+    def drive(self, values, N):
+        """(offset, velocity, acceleration) of every element, (3, N, ne, 3)."""
+        d = np.zeros((3, N, len(self.names), 3))
+        for k, pm in enumerate(values):
+            if pm is not None:
+                for c, val in enumerate((pm.offset, pm.velocity, pm.acceleration)):
+                    d[c, :, k] = np.broadcast_to(np.asarray(val, dtype=float), (N, 3))
+        return d
+
 
 PrescribedJoint.group = PrescribedGroup

@@ -65,7 +65,8 @@ class SpringDamperGroup(ScalarSpringGroup):
         w = qde[:, self.bodies, 2]
         v = qde[:, self.bodies, :2] + perp(arm) * w[..., None]
         dd = v[:, :, 1] - v[:, :, 0]
-        centripetal = arm[:, :, 0] * (w[:, :, 0, None] ** 2) - arm[:, :, 1] * (w[:, :, 1, None] ** 2)
+        centripetal = (arm[:, :, 0] * w[:, :, 0, None] ** 2
+                       - arm[:, :, 1] * w[:, :, 1, None] ** 2)
         return dot(e, centripetal) + (dot(dd, dd) - dot(e, dd) ** 2) / L
 
     def directions(self, qe):
