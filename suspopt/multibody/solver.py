@@ -28,6 +28,12 @@ Run-time values: ``motion`` maps prescribed joints to their
 accelerations per state); ``params`` maps force elements to values of their parameters
 per state (``{'strut': {'stiffness': k, 'damping': c}}``, ``{'tyre': {'magnitude': F}}``),
 which replace the file's values.
+
+Queries for a vehicle coupling: :meth:`PlanarMultibodySolver.spring` (length,
+deflection, rate, tension, line of action and force at each end of a spring element),
+:meth:`~PlanarMultibodySolver.reactions` (every joint's force and torque on each of its
+bodies) and :meth:`~PlanarMultibodySolver.body_reaction` (their sum on one body or the
+ground, torque about a given point; for a prescribed frame, the force that drives it).
 """
 from __future__ import annotations
 
