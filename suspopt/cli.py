@@ -6,6 +6,7 @@
     suspopt pareto    [--fidelity low|mixed] [--points N] [--out DIR] ...   comfort vs road holding
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
+    suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
 
 A DESIGN is the design variables' values in order (``30000,30000,3000,3000`` for the half
 car's k_S1, k_S2, c_S1, c_S2) or by name (``k_S1=30000,c_S2=2500``; the others keep their
@@ -287,6 +288,39 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_kinematics(args: argparse.Namespace) -> int:
+    """Kinematic curves of a suspension mechanism: table on stdout, figure and table in --out."""
+    from suspopt.multibody.kinematics import curves_table, kinematic_curves, plot_curves
+    from suspopt.multibody.mechanism import mechanism_path
+    travel = None
+    if args.travel is not None:
+        try:
+            travel = tuple(float(x) for x in args.travel.split(','))
+        except ValueError:
+            travel = ()
+        if len(travel) != 2 or not all(math.isfinite(x) for x in travel) \
+                or not travel[0] < travel[1]:
+            raise ConfigError(f'--travel: expected MIN,MAX [m] with MIN < MAX, got '
+                              f'{args.travel!r}')
+    if args.k is not None and not (math.isfinite(args.k) and args.k > 0.0):
+        raise ConfigError(f'--k: the spring rate must be finite and > 0 N/m, got {args.k:g}')
+    if args.points < 2:
+        raise ConfigError(f'--points: need at least 2, got {args.points}')
+    curves = kinematic_curves(args.mechanism, travel, args.k, args.points)
+    table = curves_table(curves)
+    print(table)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        stem = f'kinematics_{mechanism_path(args.mechanism).stem}'
+        (out / f'{stem}.md').write_text(table)
+        figure = plot_curves(curves, out / f'{stem}.png')
+    except OSError as err:
+        raise ConfigError(f'--out: cannot write to {out}: {err.strerror}') from None
+    print(f'wrote {figure} and {out / f"{stem}.md"}')
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='suspopt', epilog=EPILOG,
@@ -340,6 +374,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help='comfort shares 0 ... 1 (default: %(default)s)')
     run_opts(p, 'results/pareto')
     p.set_defaults(func=cmd_pareto)
+
+    p = sub.add_parser('kinematics', help='kinematic curves of a suspension mechanism: motion '
+                                          'ratio, wheel rate, camber, track change',
+                       epilog=EPILOG)
+    p.add_argument('mechanism', help='built-in name (double_wishbone, sla_double_wishbone, '
+                                     'macpherson) or path of a mechanism TOML')
+    p.add_argument('--travel', metavar='MIN,MAX',
+                   help='wheel travel range [m], e.g. --travel=-0.08,0.1 (with "=": it starts '
+                        'with a minus) (default: the mechanism\'s)')
+    p.add_argument('--k', type=float, metavar='N/m',
+                   help='spring rate for the wheel rate (default: the file\'s, or 30000)')
+    p.add_argument('--points', type=int, default=21, metavar='N',
+                   help='travels in the range (default: %(default)s)')
+    p.add_argument('--out', default='results/kinematics', metavar='DIR',
+                   help='directory of the figure and table (default: %(default)s)')
+    p.set_defaults(func=cmd_kinematics)
 
     p = sub.add_parser('init', help='write a default car as a commented study file')
     p.add_argument('file')

@@ -122,29 +122,31 @@ class VehicleRHS:
         v_M = eq.mount_motion(v_C, om_, p, self.a, self.y)
         out = {'delta': delta, 'z_M': z_M}
         if self.fidelity == 'low':
-            spring, spring_rate, wheel = z_W, v_W, z_W
+            F_S = eq.suspension_force(self.k_S, self.c_S, z_W, v_W, z_M, v_M)
+            F_R = eq.anti_roll_force(self.k_R, z_W, z_M, self.bar_track, self.bar_left,
+                                     self.bar_right)
+            F_T = eq.tyre_force(self.k_T, delta, z_W)
+            F = F_S + F_R
+            zdd_W = eq.wheel_acceleration(F_T, F, self.m)
+            wheel = z_W
         else:
             kin = self._kinematics(z_W, v_W)
-            spring, spring_rate, wheel = (np.empty((N, nc)) for _ in range(3))
+            wheel = np.empty((N, nc))
             for g, (_, cols) in enumerate(self.groups):
-                k = kin[g]
-                spring[:, cols] = k.q_U.reshape(N, len(cols))
-                spring_rate[:, cols] = k.qd_U.reshape(N, len(cols))
-                wheel[:, cols] = k.q_W.reshape(N, len(cols))
-            out['q_U'], out['q_W'] = spring, wheel
-        F_S = eq.suspension_force(self.k_S, self.c_S, spring, spring_rate, z_M, v_M)
-        F_R = eq.anti_roll_force(self.k_R, wheel, z_M, self.bar_track, self.bar_left,
-                                 self.bar_right)
-        F_T = eq.tyre_force(self.k_T, delta, wheel)
-        F = F_S + F_R
-        if self.fidelity == 'low':
-            zdd_W = eq.wheel_acceleration(F_T, F, self.m)
-        else:
-            zdd_W = np.empty((N, nc))
+                wheel[:, cols] = kin[g].q_W.reshape(N, len(cols))
+            F_R = eq.anti_roll_force(self.k_R, wheel, z_M, self.bar_track, self.bar_left,
+                                     self.bar_right)
+            F_T = eq.tyre_force(self.k_T, delta, wheel)
+            F_S, zdd_W = np.empty((N, nc)), np.empty((N, nc))
             for g, (mod, cols) in enumerate(self.groups):
-                acc, _ = mod.dynamics(kin[g].state, F_S[:, cols].ravel(),
-                                      (F_T - F_R)[:, cols].ravel())
+                acc, force, _ = mod.dynamics(
+                    kin[g].state, z_M[:, cols].ravel(), v_M[:, cols].ravel(),
+                    np.tile(self.k_S[cols], N), np.tile(self.c_S[cols], N),
+                    (F_T - F_R)[:, cols].ravel())
                 zdd_W[:, cols] = acc.reshape(N, len(cols))
+                F_S[:, cols] = force.reshape(N, len(cols))
+            F = F_S + F_R
+            out['q_W'] = wheel
         out.update(F_S=F_S, F_R=F_R, F_T=F_T, zdd_W=zdd_W, wheel_z=wheel)
         out['zdd_C'] = eq.chassis_heave_acceleration(F, self.M)
         out['thdd_C'] = eq.chassis_pitch_acceleration(F, self.a, self.I)

@@ -24,9 +24,10 @@ equations. Here it is rebuilt with *absolute* body coordinates and 10 revolute j
 Centres of gravity are placed as the published mass matrix implies (body 1 at ra from O,
 body 2 at da from R towards E, body 4 at ea from E, body 6 at fa from E; bodies 3, 5 and 7
 rotate about fixed pivots, so only the distance of their CG matters:
-sqrt(sa² + sb²), sqrt(ta² + tb²), sqrt(ua² + ub²)). The spring c0 between D on body 3 and
-the fixed point C, and the driving torque mom on the crank, are applied through the
-``forces`` callback of :func:`simulate_mechanism` (the package has no spring element).
+sqrt(sa² + sb²), sqrt(ta² + tb²), sqrt(ua² + ub²)). The spring c0 (free length l0) between
+D on body 3 and the fixed point C is a ``spring_damper`` element of the mechanism, between
+a marker on body 3 and one on the ground; the driving torque mom on the crank is applied
+through the ``forces`` callback of :func:`simulate_mechanism`.
 
 The loop-closure equations g1..g6 of the test set are exactly ``p_E(2) - p_E(3)``,
 ``p_E(2) - p_E(4)``, ``p_E(2) - p_E(6)``, i.e. this file's joints E23, E24, E26 with body 2
@@ -45,7 +46,7 @@ import time
 import numpy as np
 import pytest
 
-from suspopt.multibody.mechanism import Body, Mechanism, RevoluteJoint
+from suspopt.multibody.mechanism import Body, Marker, Mechanism, RevoluteJoint, SpringDamper
 from suspopt.multibody.simulate import simulate_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
@@ -87,13 +88,8 @@ def _p(a):      # the test set's (sin a, -cos a)
     return np.array([math.sin(a), -math.cos(a)])
 
 
-def _rot(a):
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s], [s, c]])
-
-
 def build_andrews():
-    """Mechanism (absolute coordinates), solver, spring point on body 3 (body axes)."""
+    """Mechanism (absolute coordinates, the spring as an element) and its solver."""
     be, th, ga, ph, de, om, ep = Q0
     O, A, B = np.zeros(2), np.array([XA, YA]), np.array([XB, YB])
     R = RR * _e(be)
@@ -119,25 +115,20 @@ def build_andrews():
               J('E23', 'K2', 'K3', E), J('E24', 'K2', 'K4', E), J('E26', 'K2', 'K6', E),
               J('B', 'K3', 'ground', B), J('A5', 'K5', 'ground', A),
               J('A7', 'K7', 'ground', A), J('F', 'K4', 'K5', F), J('G', 'K6', 'K7', G))
-    mech = Mechanism('Andrews squeezing mechanism', bodies, joints,
-                     independent=(('K1', 'phi'),))
-    solver = PlanarMultibodySolver(mech)
-    # spring point D = B + (sd cos γ + sc sin γ, sd sin γ - sc cos γ), in body-3 axes
+    # spring point D = B + (sd cos γ + sc sin γ, sd sin γ - sc cos γ) on body 3; C fixed
     Dp = B + SD * _e(ga) + SC * _p(ga)
-    u_D = _rot(-ga) @ (Dp - cg[2])
-    return mech, solver, u_D
+    markers = (Marker('D', 'K3', (float(Dp[0]), float(Dp[1]))), Marker('C', 'ground', (XC, YC)))
+    spring = SpringDamper('c0', ('C', 'D'), stiffness=C0, free_length=L0)
+    mech = Mechanism('Andrews squeezing mechanism', bodies, joints, markers=markers,
+                     independent=(('K1', 'phi'),), forces=(spring,))
+    return mech, PlanarMultibodySolver(mech)
 
 
-def make_forces(solver, u_D):
-    C = np.array([XC, YC])
-
-    def forces(t, q, qd):
+def make_forces(solver):
+    def forces(t, q, qd):                            # driving torque on the crank (body 1)
         Q = np.zeros(solver.n)
-        Q[2] = MOM                                   # driving torque on the crank (body 1)
-        Dp = q[6:8] + _rot(q[8]) @ u_D               # spring point on body 3
-        L = math.hypot(*(Dp - C))
-        f = -C0 * (L - L0) / L * (Dp - C)
-        return Q + solver.point_force(q[None], 2, u_D, f[None])[0]
+        Q[2] = MOM
+        return Q
     return forces
 
 
@@ -156,9 +147,10 @@ def andrews():
 
 def test_initial_multipliers(andrews):
     """At t = 0 the loop force at E between bodies 2 and 3 is the published λ(0)."""
-    mech, solver, u_D = andrews
+    mech, solver = andrews
     st = solver.consistent_state(np.array([[Q0[0]]]), np.array([[0.0]]))
-    Q = make_forces(solver, u_D)(0.0, st.q[0], st.qd[0])[None]
+    Q = solver.generalized_forces(st.q, None, st.qd) + make_forces(solver)(0.0, st.q[0],
+                                                                          st.qd[0])[None]
     qdd, lam = solver.solve_augmented(st.q, st.qd, Q)
     np.testing.assert_allclose(lam[0, 4:6], LAM0, rtol=1e-10)
     np.testing.assert_allclose(lam[0, 6:10], 0.0, atol=1e-10)
@@ -171,10 +163,10 @@ def test_initial_multipliers(andrews):
 
 @pytest.mark.parametrize('method', ['partitioned', 'baumgarte'])
 def test_andrews_reference_solution_at_t_003(andrews, method):
-    mech, solver, u_D = andrews
+    mech, solver = andrews
     t0 = time.perf_counter()
     tr = simulate_mechanism(solver, (0.0, T_END), [Q0[0]], [0.0],
-                            forces=make_forces(solver, u_D), method=method,
+                            forces=make_forces(solver), method=method,
                             t_eval=np.array([0.0, T_END]), rtol=1e-10, atol=1e-12)
     elapsed = time.perf_counter() - t0
     q, v, a = relative(tr.q[-1]), relative(tr.qd[-1]), relative(tr.qdd[-1])

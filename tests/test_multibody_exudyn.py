@@ -1,6 +1,11 @@
 """Independent cross-check of the suspension linkages against Exudyn (J. Gerstmayr et al.).
 
-Two linkages: the double wishbone of SPEC §3 (a parallelogram: the upright translates)
+Three linkages. The MacPherson strut (``macpherson``, at the end of this file): Exudyn's
+``ObjectJointPrismatic2D`` (strut), ``ObjectConnectorSpringDamper`` (spring and damper
+along it) and three ``ObjectJointRevolute2D``, its numbers typed in here; compared are
+the upright's trajectory (x, z, rotation), the spring tension and all joint reactions.
+
+Two double wishbones: the double wishbone of SPEC §3 (a parallelogram: the upright translates)
 and the short-long-arm variation shipped as ``sla_double_wishbone`` (the upright
 rotates: camber gain). Each is built in Exudyn from its numbers typed into this file (not
 from suspopt's data structures): three planar rigid bodies (``NodeRigidBody2D`` +
@@ -35,11 +40,14 @@ import pytest
 # a test dependency ([test] extra): a missing exudyn is a broken install, not a skip
 import exudyn as exu  # noqa: E402
 from exudyn.itemInterface import (CoordinateSpringDamper, LoadForceVector,  # noqa: E402
-                                  MarkerBodyPosition, MarkerNodeCoordinate, NodePointGround,
-                                  NodeRigidBody2D, ObjectGround, RevoluteJoint2D,
-                                  RigidBody2D, SensorNode, SensorObject)
+                                  MarkerBodyPosition, MarkerBodyRigid, MarkerNodeCoordinate,
+                                  NodePointGround, NodeRigidBody2D, ObjectGround,
+                                  PrismaticJoint2D, RevoluteJoint2D, RigidBody2D, SensorNode,
+                                  SensorObject, SpringDamper)
 
 from suspopt.multibody.mechanism import load_mechanism  # noqa: E402
+
+from mechanisms import with_suspension_load  # noqa: E402 (tests/ is on the path)
 from suspopt.multibody.simulate import simulate_mechanism  # noqa: E402
 from suspopt.multibody.solver import PlanarMultibodySolver  # noqa: E402
 
@@ -146,7 +154,7 @@ def both(request):
     linkage = LINKAGES[request.param]
     ex = run_exudyn(linkage)
     t = ex['W'][:, 0]
-    s = PlanarMultibodySolver(load_mechanism(request.param, suspension=True))
+    s = PlanarMultibodySolver(with_suspension_load(request.param))
     iz = linkage['spring_z']
     z0 = s.q0[iz]
 
@@ -196,3 +204,144 @@ def test_joint_reactions_match_exudyn(both):
     print(f'\n{s.mechanism.name}: joint reactions max {scale:.1f} N, max difference '
           f'{worst / scale:.2e} of it')
     assert worst < 5e-3 * scale
+
+
+# ================================================================== MacPherson strut
+#: ``data/macpherson.toml`` typed in from its numbers (the BMW E90 front strut of
+#: Chrono::Vehicle in the front view, masses scaled to 120 kg): body -> (mass, inertia,
+#: CG); the frame F is the ground.
+MP_BODIES = {'W': (99.574463, 5.961650, (0.522914, 0.0)),
+             'L': (3.425244, 0.020170, (0.301113, -0.098425)),
+             'R': (17.000293, 0.000602, (0.370328, 0.23368))}
+MP_PIVOT, MP_BALL, MP_TOP = (0.159096, -0.115752), (0.452878, -0.10414), (0.330958, 0.46863)
+MP_SEAT, MP_PATCH = (0.409698, -0.00127), (0.54, -0.3186)
+MP_K, MP_C, MP_PEAK = 3.0e4, 1500.0, 1500.0
+MP_T_END = 0.6
+
+
+def mp_tyre_force(t: float) -> float:
+    return MP_PEAK * math.sin(math.pi * t / T_PULSE) ** 2 if t < T_PULSE else 0.0
+
+
+def run_exudyn_macpherson():
+    """Exudyn: W, L, R as ObjectRigidBody2D; ObjectJointRevolute2D L-ground (LCA bushing),
+    L-W (ball joint), R-ground (top mount); ObjectJointPrismatic2D R-W along the strut
+    (axisMarker0 in R, normalMarker1 in W, constrainRotation); ObjectConnectorSpringDamper
+    from the top mount on the ground to the spring seat on W (reference length = the
+    reference distance); the tyre pulse on W at the contact patch."""
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    ground = mbs.AddObject(ObjectGround())
+    nodes, objs, cg = {}, {'ground': ground}, {ground: (0.0, 0.0)}
+    for name, (m, J, pos) in MP_BODIES.items():
+        nodes[name] = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[pos[0], pos[1], 0.0]))
+        objs[name] = mbs.AddObject(RigidBody2D(nodeNumber=nodes[name], mass=m, inertia=J))
+        cg[objs[name]] = pos
+
+    def marker(name, p, rigid=False):
+        b = objs[name]
+        c = cg[b]
+        kind = MarkerBodyRigid if rigid else MarkerBodyPosition
+        return mbs.AddMarker(kind(bodyNumber=b, localPosition=[p[0] - c[0], p[1] - c[1], 0.0]))
+
+    revolutes = [mbs.AddObject(RevoluteJoint2D(markerNumbers=[marker(a, p), marker(b, p)]))
+                 for a, b, p in (('L', 'ground', MP_PIVOT), ('L', 'W', MP_BALL),
+                                 ('R', 'ground', MP_TOP))]
+    axis = np.subtract(MP_TOP, MP_SEAT)
+    length = float(np.hypot(*axis))
+    axis = axis / length
+    mbs.AddObject(PrismaticJoint2D(markerNumbers=[marker('R', MP_SEAT, True),
+                                                  marker('W', MP_SEAT, True)],
+                                   axisMarker0=[axis[0], axis[1], 0.0],
+                                   normalMarker1=[-axis[1], axis[0], 0.0],
+                                   constrainRotation=True))
+    spring = mbs.AddObject(SpringDamper(markerNumbers=[marker('ground', MP_TOP),
+                                                       marker('W', MP_SEAT)],
+                                        referenceLength=length, stiffness=MP_K, damping=MP_C))
+    mbs.AddLoad(LoadForceVector(markerNumber=marker('W', MP_PATCH), loadVector=[0, 1, 0],
+                                loadVectorUserFunction=lambda mbs, t, lv: [
+                                    0.0, mp_tyre_force(t), 0.0]))
+    out = exu.OutputVariableType
+    sensors = {'W': mbs.AddSensor(SensorNode(nodeNumber=nodes['W'], storeInternal=True,
+                                             outputVariableType=out.Displacement)),
+               'W_phi': mbs.AddSensor(SensorNode(nodeNumber=nodes['W'], storeInternal=True,
+                                                 outputVariableType=out.Rotation)),
+               'R_acc': mbs.AddSensor(SensorNode(nodeNumber=nodes['R'], storeInternal=True,
+                                                 outputVariableType=out.Acceleration)),
+               'R_alpha': mbs.AddSensor(SensorNode(nodeNumber=nodes['R'], storeInternal=True,
+                                                   outputVariableType=out.AngularAcceleration)),
+               'R_pos': mbs.AddSensor(SensorNode(nodeNumber=nodes['R'], storeInternal=True,
+                                                 outputVariableType=out.Position)),
+               'spring': mbs.AddSensor(SensorObject(objectNumber=spring, storeInternal=True,
+                                                    outputVariableType=out.ForceLocal))}
+    for k, j in enumerate(revolutes):
+        sensors[k] = mbs.AddSensor(SensorObject(objectNumber=j, storeInternal=True,
+                                                outputVariableType=out.Force))
+    mbs.Assemble()
+    ss = exu.SimulationSettings()
+    ss.timeIntegration.numberOfSteps = int(round(MP_T_END / H))
+    ss.timeIntegration.endTime = MP_T_END
+    ss.timeIntegration.verboseMode = 0
+    ss.timeIntegration.generalizedAlpha.useIndex2Constraints = True
+    ss.timeIntegration.generalizedAlpha.useNewmark = True
+    ss.solution.file.write = False
+    ss.solution.sensors.writePeriod = OUT_DT
+    mbs.SolveDynamic(ss)
+    return {k: mbs.GetSensorStoredData(s) for k, s in sensors.items()}
+
+
+@pytest.fixture(scope='module')
+def macpherson():
+    ex = run_exudyn_macpherson()
+    t = ex['W'][:, 0]
+    s = PlanarMultibodySolver(load_mechanism('macpherson', suspension=True))
+    tr = simulate_mechanism(
+        s, (0.0, MP_T_END), [s.q0[1]], [0.0], t_eval=t, max_step=0.01,
+        loads=lambda t, q, qd: np.array([mp_tyre_force(t)]),
+        params={'strut_spring': {'stiffness': MP_K, 'damping': MP_C}})
+    return ex, tr, s
+
+
+def test_macpherson_trajectory_matches_exudyn(macpherson):
+    ex, tr, s = macpherson
+    assert s.n == 12 and s.m == 11 and s.dof == 1       # Exudyn: 9 coordinates, 8 equations
+    np.testing.assert_allclose(tr.t, ex['W'][:, 0], atol=1e-9)
+    z, phi = tr.q[:, 1], tr.q[:, 2]
+    amp, phi_amp = np.max(np.abs(z)), np.max(np.abs(phi))
+    assert 0.02 < amp < 0.06 and phi_amp > 1e-3               # it moved, and turned
+    err = {'z': np.max(np.abs(z - ex['W'][:, 2])) / amp,
+           'x': np.max(np.abs(tr.q[:, 0] - 0.522914 - ex['W'][:, 1])) / amp,
+           'phi': np.max(np.abs(phi - ex['W_phi'][:, -1])) / phi_amp}
+    f_sus = s.spring('strut_spring', tr.q, tr.qd,
+                     {'strut_spring': {'stiffness': MP_K, 'damping': MP_C}}).force
+    err['spring tension'] = np.max(np.abs(f_sus - ex['spring'][:, 1])) / np.max(np.abs(f_sus))
+    print(f'\nMacPherson: wheel z amplitude {amp * 1e3:.2f} mm, upright rotation amplitude '
+          f'{phi_amp:.2e} rad; max differences (of each amplitude): '
+          + ', '.join(f'{k} {v:.1e}' for k, v in err.items()))
+    for k, v in err.items():
+        assert v < 1e-5, (k, v)
+
+
+def test_macpherson_reactions_match_exudyn(macpherson):
+    """The three pins: suspopt's ``joint_reactions`` (on each joint's first body) against
+    Exudyn's joint forces. The prismatic joint (no force output in Exudyn): its force and
+    torque on the rod R from R's Newton–Euler in Exudyn (R's accelerations and the top
+    mount's force are the only other terms) against suspopt's ``reactions``."""
+    ex, tr, s = macpherson
+    R = s.joint_reactions(tr.lam, tr.q)
+    scale = np.max(np.abs(R))
+    assert scale > 100.0
+    err = {name: np.max(np.abs(R[:, k] - ex[k][:, 1:3])) / scale
+           for k, name in enumerate(['L-F', 'L-W', 'R-F'])}
+    m_R, I_R, _ = MP_BODIES['R']
+    F_top = ex[2][:, 1:3]                                     # on R (its first body)
+    F_prism = m_R * ex['R_acc'][:, 1:3] - F_top
+    arm = np.asarray(MP_TOP) - ex['R_pos'][:, 1:3]
+    M_prism = I_R * ex['R_alpha'][:, -1] - (arm[:, 0] * F_top[:, 1] - arm[:, 1] * F_top[:, 0])
+    sus = s.reactions(tr.q, tr.lam)[:, s.joint_names.index('strut'), 0]
+    err['strut force'] = np.max(np.abs(sus[:, :2] - F_prism)) / scale
+    err['strut torque'] = np.max(np.abs(sus[:, 2] - M_prism)) / np.max(np.abs(sus[:, 2]))
+    print(f'\nMacPherson: joint reactions max {scale:.1f} N; max differences (of it; the '
+          'strut torque of its own max): ' + ', '.join(f'{k} {v:.1e}' for k, v in err.items()))
+    for k, v in err.items():
+        assert v < 1e-5, (k, v)

@@ -123,9 +123,11 @@ class LowFidelityODE(VehicleODE):
 class MixedFidelityODE(VehicleODE):
     """Mixed fidelity, paper §3.3: the chassis + one multibody module at every corner.
 
-    Kinematics (black box) → forces (eqs. 12-13, analytic) → dynamics (black box, eq. 11).
-    The state ``z_W`` is each module's wheel travel; ``q_W`` (the wheel marker's vertical
-    displacement) enters the tyre force and the objective.
+    Kinematics (black box) → tyre force (eq. 13, analytic) → dynamics (black box, eq. 11,
+    with the suspension spring-damper inside the mechanism: its rate and damping and the
+    chassis mount's motion are inputs, its vertical force on the chassis ``F_S`` of eq. 12
+    an output). The state ``z_W`` is each module's wheel travel; ``q_W`` (the wheel
+    marker's vertical displacement) enters the tyre force and the objective.
     """
 
     wheel_signal = 'q_W'
@@ -136,12 +138,7 @@ class MixedFidelityODE(VehicleODE):
         kw = {'num_nodes': nn, 'corners': spec.layout.n}
         fd = {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
         self.add_subsystem('kinematics', SuspensionKinematicsComp(**kw, **fd),
-                           promotes_inputs=['z_W', 'v_W'],
-                           promotes_outputs=['q_U', 'qd_U', 'q_W', 'qd_W'])
-        self.add_subsystem('suspension', SuspensionForceComp(**kw),
-                           promotes_inputs=[('z_W', 'q_U'), ('v_W', 'qd_U'), 'z_M', 'v_M',
-                                            'k_S', 'c_S'],
-                           promotes_outputs=['F_S'])
+                           promotes_inputs=['z_W', 'v_W'], promotes_outputs=['q_W', 'qd_W'])
         bars = self._add_anti_roll(nn, spec, 'q_W')
         self.add_subsystem('tyre', TyreForceComp(k_T=spec.k_T, **kw),
                            promotes_inputs=['delta', ('z_W', 'q_W')], promotes_outputs=['F_T'])
@@ -150,6 +147,7 @@ class MixedFidelityODE(VehicleODE):
             self.add_subsystem('wheel_load', WheelLoadComp(**kw), promotes=['*'])
             wheel_load = 'F_W'
         self.add_subsystem('dynamics', SuspensionDynamicsComp(**kw, **fd),
-                           promotes_inputs=['z_W', 'v_W', 'F_S', ('F_T', wheel_load)],
-                           promotes_outputs=['zdd_W', 'reactions'])
+                           promotes_inputs=['z_W', 'v_W', 'z_M', 'v_M', ('F_T', wheel_load),
+                                            'k_S', 'c_S'],
+                           promotes_outputs=['zdd_W', 'F_S', 'reactions'])
         return ('F_S', 'F_R') if bars else ('F_S',)

@@ -3,26 +3,27 @@
 The optimizer treats the module as an existing solver without adjoints: its partials
 come from finite differences only, never from hand-written or automatic derivatives.
 Because the outputs of node ``i`` at corner ``c`` depend on that node's and corner's inputs
-only, the differences are taken inside ``compute_partials`` by perturbing one input at
-*all* nodes and corners at once (the coloring is known in advance): a full Jacobian costs
-one batched solver call per input variable and mechanism (two with central differences),
-whatever the number of nodes and corners. The corners that share a mechanism are analysed
-in one batch. The
-partials are declared with their node-wise ``rows``/``cols``, so OpenMDAO and the total
-sparsity (:mod:`suspopt.driver.sparsity`) see the exact pattern. Only OpenMDAO's public
-component API is used.
+only (and on that corner's settings), the differences are taken inside
+``compute_partials`` by perturbing one input at *all* nodes and corners at once (the
+coloring is known in advance): a full Jacobian costs one batched solver call per input
+variable and mechanism (two with central differences), whatever the number of nodes and
+corners. The corners that share a mechanism are analysed in one batch. The partials are
+declared with their node-wise ``rows``/``cols``, so OpenMDAO and the total sparsity
+(:mod:`suspopt.driver.sparsity`) see the exact pattern. Only OpenMDAO's public component
+API is used.
 
 The module is queried in two steps, as one would query a commercial multibody code:
 
-* :class:`SuspensionKinematicsComp` — position and velocity analysis: wheel travel
-  ``z_W`` and its rate → vertical displacement and velocity of the spring point
-  (``q^z_U``, eq. 12) and of the wheel (``q^z_W``, eq. 13);
-* :class:`SuspensionDynamicsComp` — dynamic analysis: the same state plus the applied
-  forces ``F_S`` (``-F_S`` on the spring point) and ``F_T`` (on the contact patch) →
-  wheel-travel acceleration from the augmented system (eq. 11) and joint reactions.
+* :class:`SuspensionKinematicsComp` — position and velocity analysis: wheel travel ``z_W``
+  and its rate → vertical displacement and velocity of the wheel (``q^z_W``, eq. 13);
+* :class:`SuspensionDynamicsComp` — dynamic analysis: the same state, the chassis mount's
+  vertical motion ``z_M, v_M``, the tyre force ``F_T`` and the spring settings ``k_S, c_S``
+  → wheel-travel acceleration from the augmented system (eq. 11), the spring's vertical
+  force on the chassis ``F_S`` (eq. 12 along the spring's line of action) and the joint
+  reactions.
 
-Splitting the query keeps the data flow acyclic (the forces depend on the kinematics
-outputs, the accelerations on the forces) so no nonlinear solver is needed around the
+Splitting the query keeps the data flow acyclic (the tyre force depends on the kinematics
+output, the accelerations on the tyre force), so no nonlinear solver is needed around the
 module.
 """
 from __future__ import annotations
@@ -51,18 +52,25 @@ class NodewiseBlackBox(om.ExplicitComponent):
         self.options.declare('fd_step', default=1e-6, types=float,
                              desc='absolute FD step, in the SI units of every input')
 
-    def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str]) -> None:
+    def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str],
+                            settings: tuple[str, ...] = ()) -> None:
         """Partials of each output (``outputs[name]`` values per node and corner) w.r.t.
-        each (nodes, corners) input: one block of rows per entry, in that entry's column.
+        each (nodes, corners) input — one block of rows per entry, in that entry's column —
+        and w.r.t. each per-corner setting (corners,) — every node of its corner.
 
-        The step is absolute and the same for every input (in its SI units)."""
-        n = self.options['num_nodes'] * self.options['corners']
-        self._fd_outputs, self._fd_inputs = dict(outputs), list(inputs)
+        The step of a node-wise input is absolute and the same for every input (in its SI
+        units); a setting's is relative (``fd_step`` times its magnitude, at least 1)."""
+        nn, nc = self.options['num_nodes'], self.options['corners']
+        n = nn * nc
+        self._fd_outputs = dict(outputs)
+        self._fd_inputs, self._fd_settings = list(inputs) + list(settings), tuple(settings)
         for of, width in outputs.items():
             rows = np.arange(n * width)
-            cols = np.repeat(np.arange(n), width)
             for wrt in inputs:
-                self.declare_partials(of, wrt, rows=rows, cols=cols)
+                self.declare_partials(of, wrt, rows=rows, cols=np.repeat(np.arange(n), width))
+            for wrt in settings:
+                self.declare_partials(of, wrt, rows=rows,
+                                      cols=np.repeat(np.tile(np.arange(nc), nn), width))
 
     def groups(self) -> list[tuple[SuspensionModule, list[int]]]:
         """The corners of each distinct module (analysed in one batch)."""
@@ -97,41 +105,45 @@ class NodewiseBlackBox(om.ExplicitComponent):
             outputs[name] = out[name]
 
     def compute_partials(self, inputs, partials) -> None:
-        """Forward (or central) differences, one input at all nodes per black-box call."""
+        """Forward (or central) differences, one input at all nodes and corners per
+        black-box call."""
         base_in = {k: np.array(inputs[k]) for k in self._fd_inputs}
-        h, central = self.options['fd_step'], self.options['fd_form'] == 'central'
+        step, central = self.options['fd_step'], self.options['fd_form'] == 'central'
         base = None
         if not central:
             last = getattr(self, '_last', None)
             base = last[1] if last and last[0] == self._key(base_in) else self._call(base_in)
         for wrt in self._fd_inputs:
-            plus = dict(base_in, **{wrt: base_in[wrt] + h})
-            up = self._call(plus)
-            if central:
-                down = self._call(dict(base_in, **{wrt: base_in[wrt] - h}))
-                for of in self._fd_outputs:
-                    partials[of, wrt] = ((up[of] - down[of]) / (2.0 * h)).ravel()
-            else:
-                for of in self._fd_outputs:
-                    partials[of, wrt] = ((up[of] - base[of]) / h).ravel()
+            x = base_in[wrt]
+            h = step * np.maximum(1.0, np.abs(x)) if wrt in self._fd_settings else step
+            up = self._call(dict(base_in, **{wrt: x + h}))
+            low = self._call(dict(base_in, **{wrt: x - h})) if central else base
+            scale = (2.0 if central else 1.0) * h
+            for of in self._fd_outputs:
+                partials[of, wrt] = self._scaled(up[of] - low[of], scale)
+
+    def _scaled(self, diff: np.ndarray, h: float | np.ndarray) -> np.ndarray:
+        """Differences over the step (a number, or one per corner for a setting), in the
+        declared order (node, corner, output values)."""
+        nn, nc = self.options['num_nodes'], self.options['corners']
+        h = np.reshape(h, (1, nc, 1)) if np.ndim(h) else h
+        return (diff.reshape(nn, nc, -1) / h).ravel()
 
 
 class SuspensionKinematicsComp(NodewiseBlackBox):
     """Position/velocity analysis of every corner's module (black box, FD partials).
 
     ``z_W`` is a module's independent coordinate (wheel travel, SPEC §3); outputs are the
-    vertical displacement and velocity of the spring point (``q^z_U``, eq. 12) and of the
-    wheel (``q^z_W``, eq. 13), measured from the reference pose; all (nodes, corners).
+    vertical displacement and velocity of the wheel (``q^z_W``, eq. 13), measured from the
+    reference pose; all (nodes, corners).
     """
 
-    OUTPUTS = ('q_U', 'qd_U', 'q_W', 'qd_W')
+    OUTPUTS = ('q_W', 'qd_W')
 
     def setup(self) -> None:
         shape = (self.options['num_nodes'], self.options['corners'])
         self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
-        self.add_output('q_U', shape=shape, units='m', desc='spring point vertical disp.')
-        self.add_output('qd_U', shape=shape, units='m/s', desc='spring point vertical vel.')
         self.add_output('q_W', shape=shape, units='m', desc='wheel vertical displacement')
         self.add_output('qd_W', shape=shape, units='m/s', desc='wheel vertical velocity')
         self.declare_nodewise_fd({n: 1 for n in self.OUTPUTS}, ['z_W', 'v_W'])
@@ -149,12 +161,17 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
 class SuspensionDynamicsComp(NodewiseBlackBox):
     """Dynamic analysis of every corner's module (black box, FD partials), eq. 11.
 
-    Inputs: wheel travel state and the two applied force magnitudes (``-F_S`` vertical on
-    the spring point, ``+F_T`` vertical on the contact patch, SPEC §3). Outputs: the
-    wheel-travel acceleration (this replaces the half car's eq. 7/8) and the reaction
-    force each joint applies on its first body (from ``λ``; (nodes, corners, joints, 2),
-    zero-padded to the mechanism with the most joints).
+    Inputs: the wheel-travel state, the chassis mount's vertical displacement and velocity
+    ``z_M, v_M`` above the corner, the tyre force ``F_T`` (on the contact patch) and the
+    corner's spring rate and damping ``k_S, c_S`` (the suspension spring-damper of the
+    mechanism, coupled to the chassis along its line of action). Outputs: the
+    wheel-travel acceleration (this replaces the half car's eq. 7/8), the spring's
+    vertical force on the chassis ``F_S`` (eq. 12 generalized) and the reaction force each
+    joint applies on its first body (from ``λ``; (nodes, corners, joints, 2), zero-padded
+    to the mechanism with the most joints).
     """
+
+    NODE_INPUTS = ('z_W', 'v_W', 'z_M', 'v_M', 'F_T')
 
     def setup(self) -> None:
         nn, nc = self.options['num_nodes'], self.options['corners']
@@ -163,23 +180,31 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         shape = (nn, nc)
         self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
-        self.add_input('F_S', shape=shape, units='N', desc='suspension force (eq. 12)')
+        self.add_input('z_M', shape=shape, units='m', desc='chassis above the corner')
+        self.add_input('v_M', shape=shape, units='m/s', desc='its vertical velocity')
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
+        self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
+        self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
         self.add_output('zdd_W', shape=shape, units='m/s**2', desc='wheel travel acceleration')
+        self.add_output('F_S', shape=shape, units='N', desc='spring force on the chassis, up')
         self.add_output('reactions', shape=(nn, nc, nj, 2), units='N',
                         desc='joint reaction on the first body of each joint, (x, z)')
-        self.declare_nodewise_fd({'zdd_W': 1, 'reactions': 2 * nj},
-                                 ['z_W', 'v_W', 'F_S', 'F_T'])
+        self.declare_nodewise_fd({'zdd_W': 1, 'F_S': 1, 'reactions': 2 * nj},
+                                 list(self.NODE_INPUTS), settings=('k_S', 'c_S'))
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         z = values['z_W']
         nn = z.shape[0]
-        zdd = np.empty_like(z)
+        zdd, F_S = np.empty_like(z), np.empty_like(z)
         reactions = np.zeros(z.shape + (self._nj, 2))
         for mod, cols in self.groups():
-            flat = {k: values[k][:, cols].ravel() for k in ('z_W', 'v_W', 'F_S', 'F_T')}
+            flat = {k: values[k][:, cols].ravel() for k in self.NODE_INPUTS}
+            k_S = np.tile(values['k_S'][cols], nn)
+            c_S = np.tile(values['c_S'][cols], nn)
             kin = mod.kinematics(flat['z_W'], flat['v_W'])
-            acc, reac = mod.dynamics(kin.state, flat['F_S'], flat['F_T'])
+            acc, force, reac = mod.dynamics(kin.state, flat['z_M'], flat['v_M'], k_S, c_S,
+                                            flat['F_T'])
             zdd[:, cols] = acc.reshape(nn, len(cols))
+            F_S[:, cols] = force.reshape(nn, len(cols))
             reactions[:, cols, :reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
-        return {'zdd_W': zdd, 'reactions': reactions}
+        return {'zdd_W': zdd, 'F_S': F_S, 'reactions': reactions}

@@ -1,11 +1,14 @@
 """Planar mechanisms described as data (paper §3.2-3.3, Table 2; SPEC §3).
 
 A mechanism is rigid bodies with body coordinates ``q = (x, z, φ)`` (x lateral, z up,
-φ the rotation about the out-of-plane axis), revolute joints between two bodies or a
-body and the ground, fixed bodies, named points on bodies (markers) and point loads of
-fixed global direction acting at markers, whose magnitudes are supplied at run time.
-The mechanism names its independent coordinates (as many as it has degrees of
-freedom): the solver drives the mechanism through them (coordinate partitioning).
+φ the rotation about the out-of-plane axis), joints (``[[joints]]``, chosen by ``type``:
+revolute, prismatic, fixed, prescribed; see :mod:`suspopt.multibody.elements`), named
+points on bodies or on the ground (markers) and force elements (``[[forces]]`` by
+``type``: point_load, spring_damper, linear_spring_damper; ``[[loads]]`` are point loads)
+whose run-time values (load magnitudes, stiffness, damping) the caller may supply. A body
+with ``fixed = true`` is welded to the ground. The mechanism names its independent
+coordinates (as many as it has degrees of freedom): the solver drives the mechanism
+through them (coordinate partitioning).
 
 Mechanisms are read from TOML (see ``data/double_wishbone.toml``, the paper's Table 2)
 with :func:`load_mechanism`, or built in Python from the dataclasses below. Every
@@ -13,8 +16,6 @@ geometric input is given in the global frame at the reference pose (t = 0).
 """
 from __future__ import annotations
 
-import difflib
-import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -22,9 +23,15 @@ from pathlib import Path
 from typing import Any
 
 from suspopt.errors import ConfigError
+from suspopt.multibody.elements import (FORCE_TYPES, JOINT_TYPES, FixedJoint, ForceSpec,
+                                        JointSpec, LinearSpringDamper, PointLoad,
+                                        PrescribedJoint, PrismaticJoint, RevoluteJoint,
+                                        SpringDamper, is_spring)
+from suspopt.multibody.elements.base import COORDINATES
+from suspopt.multibody.reading import GROUND, Reader, close
 
-GROUND = 'ground'
-COORDINATES = ('x', 'z', 'phi')
+#: wheel travel range a suspension file gets when its ``[suspension]`` table names none
+DEFAULT_TRAVEL = (-0.1, 0.1)
 
 
 @dataclass(frozen=True)
@@ -41,17 +48,9 @@ class Body:
 
 
 @dataclass(frozen=True)
-class RevoluteJoint:
-    """A pin joint between ``bodies[0]`` and ``bodies[1]`` (or ``'ground'``) at ``point``."""
-
-    name: str
-    bodies: tuple[str, str]
-    point: tuple[float, float]
-
-
-@dataclass(frozen=True)
 class Marker:
-    """A named point fixed on ``body``, at global ``point`` in the reference pose."""
+    """A named point fixed on ``body`` (or the ground), at global ``point`` in the
+    reference pose."""
 
     name: str
     body: str
@@ -59,26 +58,21 @@ class Marker:
 
 
 @dataclass(frozen=True)
-class PointLoad:
-    """A force of run-time magnitude along the fixed global unit ``direction``, at ``marker``."""
-
-    name: str
-    marker: str
-    direction: tuple[float, float]
-
-
-@dataclass(frozen=True)
 class Mechanism:
-    """A planar mechanism: bodies, joints, markers, loads and its independent coordinates."""
+    """A planar mechanism: bodies, joints, markers, loads, force elements and its
+    independent coordinates; ``roles`` and ``travel`` are the vehicle interface
+    (``[suspension]``), if requested."""
 
     name: str
     bodies: tuple[Body, ...]
-    joints: tuple[RevoluteJoint, ...]
+    joints: tuple[JointSpec, ...]
     markers: tuple[Marker, ...] = ()
     loads: tuple[PointLoad, ...] = ()
     independent: tuple[tuple[str, str], ...] = ()
     gravity: tuple[float, float] = (0.0, 0.0)
+    forces: tuple[ForceSpec, ...] = ()
     roles: dict[str, str] = field(default_factory=dict, compare=False, hash=False)
+    travel: tuple[float, float] | None = field(default=None, compare=False, hash=False)
 
     def body_index(self, name: str) -> int:
         return [b.name for b in self.bodies].index(name)
@@ -86,24 +80,33 @@ class Mechanism:
     def marker(self, name: str) -> Marker:
         return next(m for m in self.markers if m.name == name)
 
+    def force(self, name: str) -> ForceSpec:
+        """The force element (or load) called ``name``."""
+        return next(f for f in self.loads + self.forces if f.name == name)
+
     def structure(self) -> dict[str, Any]:
         """The topology (no numbers): what a cached coloring may depend on."""
         return {
             'bodies': [(b.name, b.fixed) for b in self.bodies],
-            'joints': [j.bodies for j in self.joints],
+            'joints': [(j.type, j.bodies) for j in self.joints],
             'markers': [(m.name, m.body) for m in self.markers],
             'loads': [(ld.name, ld.marker) for ld in self.loads],
+            'forces': [(f.type, f.name, getattr(f, 'markers', getattr(f, 'marker', None)))
+                       for f in self.forces],
             'independent': list(self.independent),
         }
 
 
 #: Vehicle-interface roles a suspension mechanism file must assign (SPEC §3).
 SUSPENSION_ROLES = {
-    'spring_marker': 'marker whose vertical displacement is q^z_U (spring end, eq. 12)',
     'wheel_marker': 'marker whose vertical displacement is q^z_W (tyre spring, eq. 13)',
-    'suspension_load': 'load that carries -F_S (direction points down)',
     'tyre_load': 'load that carries +F_T (direction points up)',
+    'spring': 'force element of the suspension spring between the chassis-side mount and '
+              'the linkage, k_S and c_S (a spring type)',
 }
+#: optional ``[suspension]`` key: the wheel travel range [m] the linkage must pass
+#: without locking, ``[min, max]`` (default :data:`DEFAULT_TRAVEL`)
+TRAVEL_KEY = 'travel'
 
 
 def builtin_mechanisms() -> list[str]:
@@ -137,74 +140,13 @@ def load_mechanism(name_or_path: str, *, suspension: bool = False) -> Mechanism:
     return mechanism_from_dict(data, source=str(path), suspension=suspension)
 
 
-def _close(word: str, options: list[str]) -> str:
-    near = difflib.get_close_matches(word, options, n=1)
-    return f" (did you mean '{near[0]}'?)" if near else ''
-
-
-class _Reader:
-    """Collects one message per problem, each naming the offending key."""
-
-    def __init__(self, source: str):
-        self.source = source
-        self.errors: list[str] = []
-
-    def err(self, key: str, msg: str) -> None:
-        self.errors.append(f'{self.source}: {key}: {msg}')
-
-    def table(self, data: dict, key: str, allowed: dict[str, bool]) -> None:
-        for k in data:
-            if k not in allowed:
-                self.err(f'{key}.{k}' if key else k,
-                         'unknown key' + _close(k, list(allowed)))
-        for k, required in allowed.items():
-            if required and k not in data:
-                self.err(f'{key}.{k}' if key else k, 'missing value')
-
-    def number(self, data: dict, key: str, where: str, *, positive: bool = False,
-               default: float | None = None) -> float:
-        val = data.get(key, default)
-        if val is None:
-            return math.nan
-        if isinstance(val, bool) or not isinstance(val, (int, float)):
-            self.err(f'{where}.{key}', f'must be a number, got {val!r}')
-            return math.nan
-        if not math.isfinite(val):
-            self.err(f'{where}.{key}', f'must be finite, got {val}')
-        elif positive and val <= 0.0:
-            self.err(f'{where}.{key}', f'must be > 0, got {val}')
-        return float(val)
-
-    def vec2(self, data: dict, key: str, where: str, default=None) -> tuple[float, float]:
-        val = data.get(key, default)
-        where = f'{where}.{key}' if where else key
-        if (not isinstance(val, (list, tuple)) or len(val) != 2
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           for v in val)):
-            self.err(where, f'must be two numbers [x, z], got {val!r}')
-            return (math.nan, math.nan)
-        if not all(math.isfinite(v) for v in val):
-            self.err(where, f'must be finite, got {val!r}')
-        return (float(val[0]), float(val[1]))
-
-    def name(self, data: dict, where: str, seen: set[str]) -> str:
-        val = data.get('name')
-        if not isinstance(val, str) or not val:
-            self.err(f'{where}.name', f'must be a non-empty string, got {val!r}')
-            return f'?{where}'
-        if val in seen:
-            self.err(f'{where}.name', f'duplicate name {val!r}')
-        seen.add(val)
-        return val
-
-
 def mechanism_from_dict(data: dict[str, Any], source: str = 'mechanism',
                         suspension: bool = False) -> Mechanism:
     """Build and validate a :class:`Mechanism` from the TOML structure (see the data files)."""
-    rd = _Reader(source)
+    rd = Reader(source)
     rd.table(data, '', {'name': False, 'gravity': False, 'bodies': True, 'joints': True,
-                        'markers': False, 'loads': False, 'independent': True,
-                        'suspension': suspension})
+                        'markers': False, 'loads': False, 'forces': False,
+                        'independent': True, 'suspension': suspension})
     bodies, names = [], set()
     for i, b in enumerate(_list_of_tables(rd, data, 'bodies')):
         w = f'bodies[{i}]'
@@ -219,61 +161,28 @@ def mechanism_from_dict(data: dict[str, Any], source: str = 'mechanism',
                            position=rd.vec2(b, 'position', w),
                            angle=rd.number(b, 'angle', w, default=0.0),
                            fixed=bool(fixed)))
-    body_names = [b.name for b in bodies]
-
-    def body_ref(val: Any, key: str, allow_ground: bool) -> str:
-        ok = body_names + ([GROUND] if allow_ground else [])
-        if val not in ok:
-            rd.err(key, f'unknown body {val!r}{_close(str(val), ok)} '
-                   f'(bodies: {", ".join(ok)})')
-        return str(val)
-
-    joints, jnames = [], set()
-    for i, j in enumerate(_list_of_tables(rd, data, 'joints')):
-        w = f'joints[{i}]'
-        rd.table(j, w, {'name': True, 'type': False, 'bodies': True, 'point': True})
-        if j.get('type', 'revolute') != 'revolute':
-            rd.err(f'{w}.type', f"only 'revolute' joints are supported, got {j.get('type')!r}")
-        pair = j.get('bodies')
-        if not isinstance(pair, list) or len(pair) != 2:
-            rd.err(f'{w}.bodies', f'must be two body names, got {pair!r}')
-            pair = ['?', '?']
-        else:
-            pair = [body_ref(p, f'{w}.bodies', allow_ground=True) for p in pair]
-            if pair[0] == pair[1]:
-                rd.err(f'{w}.bodies', f'a joint needs two different bodies, got {pair!r}')
-            if pair[0] == GROUND:
-                pair = [pair[1], pair[0]]
-        joints.append(RevoluteJoint(name=rd.name(j, w, jnames), bodies=(pair[0], pair[1]),
-                                    point=rd.vec2(j, 'point', w)))
+    rd.body_names = [b.name for b in bodies]
 
     markers, mnames = [], set()
     for i, m in enumerate(_list_of_tables(rd, data, 'markers')):
         w = f'markers[{i}]'
         rd.table(m, w, {'name': True, 'body': True, 'point': True})
-        markers.append(Marker(name=rd.name(m, w, mnames),
-                              body=body_ref(m.get('body'), f'{w}.body', allow_ground=False),
-                              point=rd.vec2(m, 'point', w)))
-    marker_names = [m.name for m in markers]
+        mk = Marker(name=rd.name(m, w, mnames),
+                    body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
+                    point=rd.vec2(m, 'point', w))
+        markers.append(mk)
+        rd.markers[mk.name] = (mk.body, mk.point)
 
-    loads, lnames = [], set()
-    for i, ld in enumerate(_list_of_tables(rd, data, 'loads')):
-        w = f'loads[{i}]'
-        rd.table(ld, w, {'name': True, 'marker': True, 'direction': True})
-        mk = ld.get('marker')
-        if mk not in marker_names:
-            rd.err(f'{w}.marker', f'unknown marker {mk!r}{_close(str(mk), marker_names)}')
-        d = rd.vec2(ld, 'direction', w)
-        norm = math.hypot(*d)
-        if math.isfinite(norm) and abs(norm - 1.0) > 1e-9:
-            rd.err(f'{w}.direction', f'must be a unit vector, got {list(d)} (length {norm:g})')
-        loads.append(PointLoad(name=rd.name(ld, w, lnames), marker=str(mk), direction=d))
+    joints = _elements(rd, data, 'joints', JOINT_TYPES, 'joint', default_type='revolute')
+    loads = _elements(rd, data, 'loads', {'point_load': PointLoad}, 'load',
+                      default_type='point_load', seen=(seen := set()))
+    forces = _elements(rd, data, 'forces', FORCE_TYPES, 'force', seen=seen)
 
     independent = []
     for i, c in enumerate(_list_of_tables(rd, data, 'independent')):
         w = f'independent[{i}]'
         rd.table(c, w, {'body': True, 'coordinate': True})
-        b = body_ref(c.get('body'), f'{w}.body', allow_ground=False)
+        b = rd.body(c.get('body'), f'{w}.body', allow_ground=False)
         if c.get('coordinate') not in COORDINATES:
             rd.err(f'{w}.coordinate', f'must be one of {", ".join(COORDINATES)}, '
                    f'got {c.get("coordinate")!r}')
@@ -282,43 +191,108 @@ def mechanism_from_dict(data: dict[str, Any], source: str = 'mechanism',
         independent.append((b, str(c.get('coordinate'))))
 
     roles: dict[str, str] = {}
+    travel = None
     if suspension:
-        sus = data.get('suspension', {})
-        if not isinstance(sus, dict):
-            rd.err('suspension', 'must be a table')
-            sus = {}
-        rd.table(sus, 'suspension', {k: True for k in SUSPENSION_ROLES})
-        for key in ('spring_marker', 'wheel_marker'):
-            if key in sus and sus[key] not in marker_names:
-                rd.err(f'suspension.{key}',
-                       f'unknown marker {sus[key]!r}{_close(str(sus[key]), marker_names)}')
-        load_names = [ld.name for ld in loads]
-        for key in ('suspension_load', 'tyre_load'):
-            if key in sus and sus[key] not in load_names:
-                rd.err(f'suspension.{key}',
-                       f'unknown load {sus[key]!r}{_close(str(sus[key]), load_names)}')
-        if len(independent) != 1:
-            rd.err('independent', 'a suspension module needs exactly one independent '
-                   f'coordinate (the wheel travel), got {len(independent)}')
-        elif independent[0][1] != 'z':
-            rd.err('independent[0].coordinate', "a suspension module is driven by a vertical "
-                   f"wheel travel: must be 'z', got {independent[0][1]!r}")
-        roles = {k: str(v) for k, v in sus.items() if k in SUSPENSION_ROLES}
+        fixed = ({b.name for b in bodies if b.fixed} | {GROUND}
+                 | {b for j in joints if isinstance(j, FixedJoint) and GROUND in j.bodies
+                    for b in j.bodies})
+        roles, travel = _suspension_roles(rd, data, loads + forces, independent, fixed)
 
     mech = Mechanism(name=str(data.get('name', Path(source).stem)), bodies=tuple(bodies),
                      joints=tuple(joints), markers=tuple(markers), loads=tuple(loads),
                      independent=tuple(independent),
                      gravity=rd.vec2({'gravity': data.get('gravity', [0.0, 0.0])}, 'gravity', '')
                      if 'gravity' in data else (0.0, 0.0),
-                     roles=roles)
+                     forces=tuple(forces), roles=roles, travel=travel)
     if rd.errors:
         raise ConfigError(rd.errors)
     return mech
 
 
-def _list_of_tables(rd: _Reader, data: dict, key: str) -> list[dict]:
+def _elements(rd: Reader, data: dict, key: str, types: dict[str, type], kind: str, *,
+              default_type: str | None = None, seen: set[str] | None = None) -> list:
+    """Read ``[[key]]`` tables, each by the spec class of its ``type``."""
+    out, seen = [], set() if seen is None else seen
+    for i, table in enumerate(_list_of_tables(rd, data, key)):
+        w = f'{key}[{i}]'
+        name = rd.name(table, w, seen)
+        rd.element = f'({kind} {name!r})'
+        try:
+            typ = table.get('type', default_type)
+            if typ not in types:
+                have = sorted(types)
+                rd.err(f'{w}.type', ('missing value' if typ is None else
+                                     f'unknown {kind} type {typ!r}{close(str(typ), have)}')
+                       + f' (types: {", ".join(have)})')
+                continue
+            spec = types[typ]
+            rd.table(table, w, spec.keys)
+            out.append(spec.read(rd, table, w, name))
+        finally:
+            rd.element = ''
+    return out
+
+
+def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list,
+                      fixed: set[str]):
+    """The ``[suspension]`` table: the vehicle interface roles and the travel range."""
+    sus = data.get('suspension', {})
+    if not isinstance(sus, dict):
+        rd.err('suspension', 'must be a table')
+        sus = {}
+    rd.table(sus, 'suspension',
+             {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False})
+    if 'wheel_marker' in sus:
+        rd.marker(sus['wheel_marker'], 'suspension.wheel_marker')
+    by_name = {f.name: f for f in forces}
+    loads = [f.name for f in forces if isinstance(f, PointLoad)]
+    for key in ('tyre_load',):
+        if key in sus and sus[key] not in loads:
+            rd.err(f'suspension.{key}',
+                   f'unknown load {sus[key]!r}{close(str(sus[key]), loads)}')
+    springs = [f.name for f in forces if is_spring(f)]
+    if 'spring' in sus and not (sus['spring'] in by_name and is_spring(by_name[sus['spring']])):
+        rd.err('suspension.spring', f'{sus["spring"]!r} is not a spring force element '
+               + (f'(springs: {", ".join(springs)})' if springs else
+                  '(the mechanism has none: add a spring_damper or linear_spring_damper to '
+                  '[[forces]])'))
+    elif 'spring' in sus:
+        ends = [rd.markers[m][0] for m in by_name[sus['spring']].markers if m in rd.markers]
+        on_chassis = [b for b in ends if b in fixed]
+        if len(ends) == 2 and len(on_chassis) != 1:
+            rd.err('suspension.spring', f'{sus["spring"]!r} must connect the chassis side (a '
+                   f'fixed body or the ground) to the linkage; its ends are on {ends}')
+    else:
+        rd.err('suspension.spring', 'missing value: name the suspension spring ('
+               + (f'springs: {", ".join(springs)})' if springs else
+                  'the mechanism has none: add a spring_damper or linear_spring_damper to '
+                  '[[forces]])'))
+    travel = DEFAULT_TRAVEL
+    if TRAVEL_KEY in sus:
+        lo, hi = rd.vec2(sus, TRAVEL_KEY, 'suspension')
+        if not lo < 0.0 < hi:
+            rd.err(f'suspension.{TRAVEL_KEY}', f'must be [min, max] with min < 0 < max '
+                   f'(wheel travel from the reference pose, m), got {[lo, hi]}')
+        travel = (lo, hi)
+    if len(independent) != 1:
+        rd.err('independent', 'a suspension module needs exactly one independent '
+               f'coordinate (the wheel travel), got {len(independent)}')
+    elif independent[0][1] != 'z':
+        rd.err('independent[0].coordinate', "a suspension module is driven by a vertical "
+               f"wheel travel: must be 'z', got {independent[0][1]!r}")
+    roles = {k: str(v) for k, v in sus.items() if k in SUSPENSION_ROLES}
+    return roles, travel
+
+
+def _list_of_tables(rd: Reader, data: dict, key: str) -> list[dict]:
     val = data.get(key, [])
     if not isinstance(val, list) or not all(isinstance(v, dict) for v in val):
         rd.err(key, 'must be an array of tables ([[%s]])' % key)
         return []
     return val
+
+
+__all__ = ['COORDINATES', 'DEFAULT_TRAVEL', 'GROUND', 'SUSPENSION_ROLES', 'Body',
+           'FixedJoint', 'LinearSpringDamper', 'Marker', 'Mechanism', 'PointLoad',
+           'PrescribedJoint', 'PrismaticJoint', 'RevoluteJoint', 'SpringDamper',
+           'builtin_mechanisms', 'load_mechanism', 'mechanism_from_dict', 'mechanism_path']

@@ -24,12 +24,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from suspopt.errors import MultibodyError
-from suspopt.multibody.solver import PlanarMultibodySolver
+from suspopt.multibody.solver import Motion, Params, PlanarMultibodySolver
 
 #: load magnitudes (n_loads,) as a function of time and the state (q, q̇) of one instant
 LoadFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 #: additional generalized forces (n,) as a function of time and the state of one instant
 ForceFunction = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
+#: prescribed motion (values of one state) as a function of time
+MotionFunction = Callable[[float], Motion]
 
 
 @dataclass
@@ -48,13 +50,18 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
                        q_ind0: np.ndarray, qd_ind0: np.ndarray, *,
                        loads: LoadFunction | None = None,
                        forces: ForceFunction | None = None,
+                       params: Params | None = None,
+                       motion: MotionFunction | None = None,
                        method: str = 'partitioned', t_eval: np.ndarray | None = None,
                        rtol: float = 1e-10, atol: float = 1e-12,
                        baumgarte: tuple[float, float] = (10.0, 10.0),
                        max_step: float = np.inf, q_guess: np.ndarray | None = None,
                        max_evaluations: int = 200_000) -> MechanismTrajectory:
     """Simulate a mechanism from consistent initial conditions built from the independent
-    coordinates ``q_ind0`` and rates ``qd_ind0`` (absolute values, shape (dof,)).
+    coordinates ``q_ind0`` and rates ``qd_ind0`` (absolute values, shape (dof,)), under
+    its force elements (with ``params``, see :class:`PlanarMultibodySolver`), the load
+    magnitudes ``loads(t, q, q̇)``, extra generalized forces ``forces(t, q, q̇)`` and the
+    prescribed motion ``motion(t)``.
 
     ``q_guess`` (all coordinates, shape (n,)) starts the initial position analysis instead
     of the reference pose: it selects the assembly branch when the start is far from it.
@@ -65,33 +72,34 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
     q_ind0 = np.atleast_1d(np.asarray(q_ind0, dtype=float))
     qd_ind0 = np.atleast_1d(np.asarray(qd_ind0, dtype=float))
     guess0 = None if q_guess is None else np.asarray(q_guess, dtype=float).reshape(1, -1)
-    st0 = solver.consistent_state(q_ind0[None], qd_ind0[None], guess0)
+    motion_at = (lambda t: None) if motion is None else motion
+    st0 = solver.consistent_state(q_ind0[None], qd_ind0[None], guess0, motion_at(t_span[0]))
     ind, dof, n = solver.ind, solver.dof, solver.n
     t_eval = np.linspace(*t_span, 201) if t_eval is None else np.asarray(t_eval, dtype=float)
 
     def accelerations(t: float, q: np.ndarray, qd: np.ndarray, stab):
         load = None if loads is None else np.asarray(loads(t, q[0], qd[0]), dtype=float)[None]
-        Q = solver.generalized_forces(q, load)
+        Q = solver.generalized_forces(q, load, qd, params)
         if forces is not None:
             Q = Q + np.asarray(forces(t, q[0], qd[0]), dtype=float)[None]
-        return solver.solve_augmented(q, qd, Q, baumgarte=stab)
+        return solver.solve_augmented(q, qd, Q, baumgarte=stab, motion=motion_at(t))
 
     if method == 'partitioned':
         guess = [st0.q]
 
-        def full_state(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            q = solver.positions(y[None, :dof], guess[0])
+        def full_state(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            q = solver.positions(y[None, :dof], guess[0], motion_at(t))
             guess[0] = q
-            return q, solver.velocities(q, y[None, dof:])
+            return q, solver.velocities(q, y[None, dof:], motion=motion_at(t))
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            q, qd = full_state(y)
+            q, qd = full_state(t, y)
             qdd, _ = accelerations(t, q, qd, None)
             return np.concatenate([y[dof:], qdd[0, ind]])
 
         y0 = np.concatenate([q_ind0, qd_ind0])
     elif method == 'baumgarte':
-        def full_state(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        def full_state(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return y[None, :n], y[None, n:]
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
@@ -122,7 +130,7 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
     for k, t in enumerate(sol.t):
         if method == 'partitioned':
             guess = [qs[-1] if qs else st0.q]
-        q, qd = full_state(sol.y[:, k])
+        q, qd = full_state(t, sol.y[:, k])
         qdd, lam = accelerations(t, q, qd, None if method == 'partitioned' else baumgarte)
         qs.append(q)
         qds.append(qd)
@@ -133,4 +141,7 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
         t=sol.t, q=q, qd=np.concatenate(qds), qdd=np.concatenate(qdds),
         lam=np.concatenate(lams),
         info={'method': method, 'rhs_evaluations': int(sol.nfev),
-              'max_constraint_residual': float(np.max(np.abs(solver.constraints(q))))})
+              'max_constraint_residual': float(np.max(np.abs(
+                  solver.constraints(q) if motion is None else
+                  np.concatenate([solver.constraints(q[k:k + 1], motion(t))
+                                  for k, t in enumerate(sol.t)]))))})

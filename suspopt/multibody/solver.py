@@ -2,19 +2,17 @@
 
 Body coordinates ``q = (x, z, φ)`` per body, CG-based, so the mass matrix
 ``M = diag(m, m, I)`` is constant and there are no quadratic-velocity inertia forces
-(``F_v = 0``; Shabana, *Dynamics of Multibody Systems*, ch. 5). Each revolute joint ``k``
-between bodies ``i`` and ``j`` contributes
-
-    C_k(q) = r_i + A(φ_i) u_i - r_j - A(φ_j) u_j = 0                     (2 equations)
-
-with ``u`` the joint point in body axes; a fixed body contributes ``q_b - q_b0 = 0``.
+(``F_v = 0``; Shabana, *Dynamics of Multibody Systems*, ch. 5). The constraint equations
+``C(q, t) = 0`` are the joints' (one module per joint type in
+:mod:`suspopt.multibody.elements`; a fixed body is a fixed joint to the ground), stacked
+in the order of the mechanism's joints, each type evaluated for all its joints at once.
 The accelerations and multipliers solve
 
     [ M   C_qᵀ ] [ q̈ ]   [ Q          ]
-    [ C_q  0   ] [ λ ] = [ γ = F_c    ],   γ_k = A(φ_i) u_i φ̇_i² - A(φ_j) u_j φ̇_j²,
+    [ C_q  0   ] [ λ ] = [ γ = F_c    ],   γ = -(C_q q̇)_q q̇ - C_tt,
 
-which is ``-(C_q q̇)_q q̇`` for these joints. Optionally Baumgarte stabilization replaces
-``γ`` by ``γ - 2α Ċ - β² C`` (used by the full-coordinate simulator only).
+and ``Q = F_e`` is gravity plus the force elements. Optionally Baumgarte stabilization
+replaces ``γ`` by ``γ - 2α Ċ - β² C`` (used by the full-coordinate simulator only).
 
 Every method works on a batch of N states at once (leading axis N): the collocation
 nodes are evaluated in one vectorized call with batched LAPACK solves, never in a
@@ -22,41 +20,51 @@ Python loop over nodes.
 
 Position analysis (coordinate partitioning, Wehage & Haug 1982): given the independent
 coordinates, Newton's method on ``C(q) = 0`` gives the dependent ones; then
-``C_q q̇ = 0`` gives the dependent velocities.
+``C_q q̇ = ν`` (``ν = -C_t``, zero unless a body is prescribed) gives the dependent
+velocities.
+
+Run-time values: ``motion`` maps prescribed joints to their
+:class:`~suspopt.multibody.elements.PrescribedMotion` (pose offsets, velocities and
+accelerations per state); ``params`` maps force elements to values of their parameters
+per state (``{'strut': {'stiffness': k, 'damping': c}}``, ``{'tyre': {'magnitude': F}}``),
+which replace the file's values.
+
+Queries for a vehicle coupling: :meth:`PlanarMultibodySolver.spring` (length,
+deflection, rate, tension, line of action and force at each end of a spring element),
+:meth:`~PlanarMultibodySolver.reactions` (every joint's force and torque on each of its
+bodies) and :meth:`~PlanarMultibodySolver.body_reaction` (their sum on one body or the
+ground, torque about a given point; for a prescribed frame, the force that drives it).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from suspopt.errors import ConfigError, MultibodyError
-from suspopt.multibody.mechanism import COORDINATES, GROUND, Mechanism
+from suspopt.multibody.elements import FixedJoint, PointLoad, PrescribedMotion
+from suspopt.multibody.elements.base import (COORDINATES, Layout, ScalarSpringGroup, cross,
+                                             perp, rot_apply)
+from suspopt.multibody.mechanism import GROUND, Mechanism
+
+#: a state where the linkage moves this many times faster than at its reference pose is
+#: a lock (toggle) position: the travel-range check of a suspension refuses it
+TOGGLE_SENSITIVITY = 100.0
+#: wheel-travel steps of the travel-range check (continuation, each half of the range)
+TRAVEL_STEPS = 10
+
+Motion = Mapping[str, PrescribedMotion]
+Params = Mapping[str, Mapping[str, ArrayLike]]
+
+__all__ = ['MultibodyState', 'PlanarMultibodySolver', 'SpringState', 'rotation']
 
 
 def rotation(phi: np.ndarray) -> np.ndarray:
     """``A(φ)`` for an array of angles: shape ``phi.shape + (2, 2)``."""
     c, s = np.cos(phi), np.sin(phi)
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
-
-
-def _rot_apply(phi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``A(φ) u`` with broadcasting; ``u`` has a trailing axis of 2."""
-    c, s = np.cos(phi), np.sin(phi)
-    u0, u1 = u[..., 0], u[..., 1]
-    x = c * u0 - s * u1
-    out = np.empty(x.shape + (2,))
-    out[..., 0] = x
-    out[..., 1] = s * u0 + c * u1
-    return out
-
-
-def _perp(v: np.ndarray) -> np.ndarray:
-    """``B(φ) u = dA/dφ u`` equals the rotated vector turned by +90°: (x, z) -> (-z, x)."""
-    out = np.empty_like(v)
-    out[..., 0] = -v[..., 1]
-    out[..., 1] = v[..., 0]
-    return out
 
 
 @dataclass
@@ -70,11 +78,29 @@ class MultibodyState:
     Cq: np.ndarray | None = None  # constraint Jacobian at q, when already computed
 
 
+@dataclass
+class SpringState:
+    """A spring element at N states: length ``ℓ``, deflection ``ℓ - ℓ0``, rate ``ℓ̇`` and
+    ``ℓ̈`` (NaN when not computed), tension ``f = k (ℓ - ℓ0) + c ℓ̇`` (N,); the unit line of
+    action at each end, pointing to the other end (N, 2, 2), and the force on each end,
+    ``f`` times it (N, 2, 2); the bodies of the two ends."""
+
+    length: np.ndarray
+    deflection: np.ndarray
+    rate: np.ndarray
+    acceleration: np.ndarray
+    force: np.ndarray
+    direction: np.ndarray
+    end_forces: np.ndarray
+    bodies: tuple[str, str]
+
+
 class PlanarMultibodySolver:
     """Batched planar multibody solver for one :class:`Mechanism`.
 
     Counts every batched evaluation in ``calls`` (position analyses, augmented solves) so
-    that benchmarks can report solver calls.
+    that benchmarks can report solver calls. A mechanism with a travel range (a
+    suspension file) is checked to pass it without locking.
     """
 
     def __init__(self, mechanism: Mechanism, newton_tol: float = 1e-12,
@@ -87,44 +113,72 @@ class PlanarMultibodySolver:
         bodies = mechanism.bodies
         self.nb = nb = len(bodies)
         self.n = 3 * nb
-        names = [b.name for b in bodies]
-        idx = {name: i for i, name in enumerate(names)}
+        self.body_names = [b.name for b in bodies]
+        idx = {name: i for i, name in enumerate(self.body_names)}
         idx[GROUND] = nb  # a virtual body with zero coordinates
         self.q0 = np.array([[*b.position, b.angle] for b in bodies], dtype=float).ravel()
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
+        q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
-        # joints: body indices and joint points in body axes (ground: global point)
-        q0ext = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
-        self.j_i = np.array([idx[j.bodies[0]] for j in mechanism.joints], dtype=int)
-        self.j_j = np.array([idx[j.bodies[1]] for j in mechanism.joints], dtype=int)
-        pts = np.array([j.point for j in mechanism.joints], dtype=float).reshape(-1, 2)
-        self.u_i = _rot_apply(-q0ext[self.j_i, 2], pts - q0ext[self.j_i, :2])
-        self.u_j = _rot_apply(-q0ext[self.j_j, 2], pts - q0ext[self.j_j, :2])
-        self.fixed = np.array([i for i, b in enumerate(bodies) if b.fixed], dtype=int)
-        self.nj = len(mechanism.joints)
-        self.m = 2 * self.nj + 3 * len(self.fixed)
-
-        # markers and loads
+        # markers (on bodies or on the ground)
         self.marker_names = [mk.name for mk in mechanism.markers]
         self.mk_body = np.array([idx[mk.body] for mk in mechanism.markers], dtype=int)
         mk_pts = np.array([mk.point for mk in mechanism.markers], dtype=float).reshape(-1, 2)
-        self.mk_u = _rot_apply(-q0ext[self.mk_body, 2], mk_pts - q0ext[self.mk_body, :2])
-        self.load_names = [ld.name for ld in mechanism.loads]
-        self.ld_marker = np.array([self.marker_names.index(ld.marker)
-                                   for ld in mechanism.loads], dtype=int)
-        self.ld_dir = np.array([ld.direction for ld in mechanism.loads],
-                               dtype=float).reshape(-1, 2)
+        self.mk_u = rot_apply(-q0e[self.mk_body, 2], mk_pts - q0e[self.mk_body, :2])
+        layout = Layout(index=idx, q0e=q0e,
+                        markers={name: (int(b), u) for name, b, u in
+                                 zip(self.marker_names, self.mk_body, self.mk_u)})
 
-        # constant entries of C_q (the ±1 of the joint translations, the fixed bodies)
-        self._Cq_const = np.zeros((self.m, 3 * (nb + 1)))
-        rows = 2 * np.arange(self.nj)
-        for c in range(2):
-            self._Cq_const[rows + c, 3 * self.j_i + c] = 1.0
-            self._Cq_const[rows + c, 3 * self.j_j + c] = -1.0
-        for k, b in enumerate(self.fixed):
-            for c in range(3):
-                self._Cq_const[2 * self.nj + 3 * k + c, 3 * b + c] = 1.0
+        # joints: the mechanism's, then every fixed body welded to the ground at its CG
+        specs = list(mechanism.joints) + [FixedJoint(f'fixed {b.name}', (b.name, GROUND))
+                                          for b in bodies if b.fixed]
+        self.nj = len(mechanism.joints)
+        self.joint_names = [j.name for j in specs]
+        self.joint_bodies = [tuple(j.bodies) for j in specs]
+        first = np.cumsum([0] + [type(j).group.n_equations for j in specs])
+        self.m = int(first[-1])
+        self.joint_rows = [np.arange(first[k], first[k + 1]) for k in range(len(specs))]
+        self.joint_groups = []
+        for typ in dict.fromkeys(j.type for j in specs):
+            members = [k for k, j in enumerate(specs) if j.type == typ]
+            g = type(specs[members[0]]).group([specs[k] for k in members], layout)
+            g.members = np.array(members, dtype=int)
+            g.rows = np.array([self.joint_rows[k] for k in members], dtype=int)
+            # where each entry of its Jacobian blocks (ne, S, k, 3) goes in the flattened
+            # C_q of the bodies and the ground (m, 3 (nb + 1))
+            g.flat = (g.rows[:, None, :, None] * 3 * (nb + 1)
+                      + 3 * g.bodies[:, :, None, None] + np.arange(3)).ravel()
+            self.joint_groups.append(g)
+        self.prescribed = [name for g in self.joint_groups if g.rheonomic for name in g.names]
+        # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
+        # one matrix (2 nj, m), where that block does not depend on q
+        self._first_force = np.zeros((len(specs), 2, self.m))
+        for g in self.joint_groups:
+            J0 = g.jacobian(q0e[None])[0, :, 0, :, :2]        # (ne, k, 2)
+            self._first_force[g.members[:, None, None], np.arange(2)[:, None],
+                              g.rows[:, None, :]] = J0.transpose(0, 2, 1)
+        self._first_force = self._first_force[:self.nj].reshape(2 * self.nj, self.m)
+
+        # force elements: the loads, then [[forces]]
+        fspecs = list(mechanism.loads) + list(mechanism.forces)
+        self.force_names = [f.name for f in fspecs]
+        self.load_names = [f.name for f in fspecs if isinstance(f, PointLoad)]
+        self.force_groups = []
+        for typ in dict.fromkeys(f.type for f in fspecs):
+            members = [f for f in fspecs if f.type == typ]
+            self.force_groups.append(type(members[0]).group(members, layout))
+        self._force_group = {name: (gi, k) for gi, g in enumerate(self.force_groups)
+                             for k, name in enumerate(g.names)}
+        for g in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
+            g.all_zero = not any(np.any(v) for v in g.defaults.values())
+            scatter = np.zeros((g.bodies.size, 3, nb + 1, 3))
+            scatter[np.arange(g.bodies.size), :, g.bodies.ravel()] = np.eye(3)
+            g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, :self.n]
+        # point-load groups: the columns of the ``loads`` array of their elements
+        self._load_columns = {gi: np.array([self.load_names.index(n) for n in g.names])
+                              for gi, g in enumerate(self.force_groups)
+                              if isinstance(g.specs[0], PointLoad)}
 
         # coordinate partitioning
         self.ind = np.array([3 * idx[b] + COORDINATES.index(c)
@@ -147,67 +201,139 @@ class PlanarMultibodySolver:
         # analysis's start, and the reference of the toggle check (see :meth:`velocities`)
         self._tangent0 = -np.linalg.solve(Cq[:, self.dep], Cq[:, self.ind])
         self.sensitivity0 = float(np.max(np.abs(self._tangent0))) or 1.0
+        # C_q,dep⁻¹ on the rows of the rheonomic joints (predictor of a driven position)
+        self._drive_rows = np.concatenate([g.rows.ravel() for g in self.joint_groups
+                                           if g.rheonomic] or [np.zeros(0, dtype=int)])
+        E = np.zeros((self.m, self._drive_rows.size))
+        E[self._drive_rows, np.arange(self._drive_rows.size)] = 1.0
+        self._drive_tangent0 = np.linalg.solve(Cq[:, self.dep], E)
+        if mechanism.travel is not None:
+            self._check_travel(mechanism.travel)
 
-    # ---------------------------------------------------------------- kinematics
+    # ---------------------------------------------------------------- run-time values
     def _ext(self, q: np.ndarray) -> np.ndarray:
         """(N, nb+1, 3): body coordinates with the ground appended."""
         N = q.shape[0]
         return np.concatenate([q.reshape(N, self.nb, 3), np.zeros((N, 1, 3))], axis=1)
 
-    def constraints(self, q: np.ndarray) -> np.ndarray:
-        """Position constraints ``C(q)``, shape (N, m)."""
-        return self._constraints(q, self._joint_arms(q))
+    def _drives(self, motion: Motion | None, N: int) -> list[np.ndarray | None]:
+        """Per joint group: its run-time drive values (see ``JointGroup.drive``), or None
+        (a rheonomic joint then holds its reference)."""
+        out: list[np.ndarray | None] = [None] * len(self.joint_groups)
+        if not motion:
+            return out
+        unknown = sorted(set(motion) - set(self.prescribed))
+        if unknown:
+            raise ValueError(f'{self.mechanism.name}: motion given for {unknown}, which are '
+                             f'not prescribed joints (prescribed: {self.prescribed})')
+        for gi, g in enumerate(self.joint_groups):
+            if g.rheonomic and any(name in motion for name in g.names):
+                out[gi] = g.drive([motion.get(name) for name in g.names], N)
+        return out
 
-    def _joint_arms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``A(φ_i) u_i`` and ``A(φ_j) u_j`` of every joint, (N, nj, 2) each."""
-        qe = self._ext(q)
-        return (_rot_apply(qe[:, self.j_i, 2], self.u_i),
-                _rot_apply(qe[:, self.j_j, 2], self.u_j))
+    @staticmethod
+    def _subset(drives: list[np.ndarray | None], rows: np.ndarray) -> list[np.ndarray | None]:
+        return [None if d is None else d[:, rows] for d in drives]
 
-    def _constraints(self, q: np.ndarray, arms) -> np.ndarray:
-        N = q.shape[0]
-        qe = self._ext(q)
-        C = np.empty((N, self.m))
-        C[:, :2 * self.nj] = (qe[:, self.j_i, :2] + arms[0] - qe[:, self.j_j, :2]
-                              - arms[1]).reshape(N, -1)
-        if len(self.fixed):
-            q3 = q.reshape(N, self.nb, 3)
-            C[:, 2 * self.nj:] = (q3[:, self.fixed] - self.q0.reshape(self.nb, 3)[self.fixed]
-                                  ).reshape(N, -1)
+    def _nu(self, drives: list[np.ndarray | None], N: int) -> np.ndarray | None:
+        """``ν = -C_t`` (N, m), or None when nothing moves by prescription."""
+        if all(d is None for d in drives):
+            return None
+        nu = np.zeros((N, self.m))
+        for g, d in zip(self.joint_groups, drives):
+            if d is not None:
+                nu[:, g.rows] = g.velocity_term(d)
+        return nu
+
+    def _force_values(self, N: int, loads: np.ndarray | None,
+                      params: Params | None) -> list[dict[str, np.ndarray] | None]:
+        """Per force group: each parameter's values (N, ne), the file's unless given; None
+        for a group whose values are all zero (it applies no force)."""
+        given: dict[int, dict[str, list]] = {}
+        for name, vals in (params or {}).items():
+            if name not in self._force_group:
+                raise ValueError(f'{self.mechanism.name}: params given for {name!r}, which is '
+                                 f'not a force element (force elements: {self.force_names})')
+            gi, k = self._force_group[name]
+            for p, val in vals.items():
+                if p not in self.force_groups[gi].parameters:
+                    raise ValueError(f'{self.mechanism.name}: force element {name!r} has no '
+                                     f'parameter {p!r} (parameters: '
+                                     f'{", ".join(self.force_groups[gi].parameters)})')
+                given.setdefault(gi, {}).setdefault(p, []).append((k, val))
+        out: list[dict[str, np.ndarray] | None] = []
+        for gi, g in enumerate(self.force_groups):
+            from_loads = loads is not None and gi in self._load_columns
+            if gi not in given and not from_loads and g.all_zero:
+                out.append(None)
+                continue
+            values = {p: (np.asarray(loads, dtype=float)[:, self._load_columns[gi]]
+                          if from_loads and p == 'magnitude' else np.tile(v, (N, 1)))
+                      for p, v in g.defaults.items()}
+            for p, items in given.get(gi, {}).items():
+                for k, val in items:
+                    values[p][:, k] = np.broadcast_to(np.asarray(val, dtype=float), (N,))
+            out.append(values)
+        return out
+
+    # ---------------------------------------------------------------- kinematics
+    def constraints(self, q: np.ndarray, motion: Motion | None = None) -> np.ndarray:
+        """Position constraints ``C(q, t)``, shape (N, m)."""
+        return self._constraints(self._ext(q), self._drives(motion, q.shape[0]))
+
+    def _constraints(self, qe: np.ndarray, drives: list[np.ndarray | None]) -> np.ndarray:
+        C = np.empty((qe.shape[0], self.m))
+        for g, d in zip(self.joint_groups, drives):
+            C[:, g.rows] = g.residual(qe, d)
         return C
 
-    def constraint_jacobian(self, q: np.ndarray, arms=None) -> np.ndarray:
+    def constraint_jacobian(self, q: np.ndarray) -> np.ndarray:
         """``C_q``, shape (N, m, n)."""
-        N = q.shape[0]
-        if arms is None:
-            arms = self._joint_arms(q)
-        Cq = np.repeat(self._Cq_const[None], N, axis=0)
-        rows = 2 * np.arange(self.nj)
-        bi, bj = _perp(arms[0]), _perp(arms[1])  # (N, nj, 2)
-        for c in range(2):
-            Cq[:, rows + c, 3 * self.j_i + 2] = bi[..., c]
-            Cq[:, rows + c, 3 * self.j_j + 2] = -bj[..., c]
-        return Cq[:, :, :self.n]
+        return self._jacobian(self._ext(q))
 
-    def gamma(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """Right-hand side of the acceleration constraints ``γ = -(C_q q̇)_q q̇``, (N, m)."""
+    def _jacobian(self, qe: np.ndarray, blocks: list[np.ndarray] | None = None) -> np.ndarray:
+        """Assemble ``C_q`` (N, m, n) from the groups' blocks (computed unless given)."""
+        N = qe.shape[0]
+        Cq = np.zeros((N, self.m * 3 * (self.nb + 1)))
+        for i, g in enumerate(self.joint_groups):
+            J = g.jacobian(qe) if blocks is None else blocks[i]
+            Cq[:, g.flat] = J.reshape(N, -1)
+        return Cq.reshape(N, self.m, -1)[:, :, :self.n]
+
+    def constraint_rate(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None,
+                        Cq: np.ndarray | None = None) -> np.ndarray:
+        """``Ċ = C_q q̇ - ν`` (N, m); zero at consistent velocities."""
+        Cdot = np.einsum('nij,nj->ni', self.constraint_jacobian(q) if Cq is None else Cq, qd)
+        nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
+        return Cdot if nu is None else Cdot - nu
+
+    def gamma(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None) -> np.ndarray:
+        """Right-hand side of the acceleration constraints ``γ = -(C_q q̇)_q q̇ - C_tt``,
+        (N, m)."""
         qe, qde = self._ext(q), self._ext(qd)
-        gi = _rot_apply(qe[:, self.j_i, 2], self.u_i) * qde[:, self.j_i, 2, None] ** 2
-        gj = _rot_apply(qe[:, self.j_j, 2], self.u_j) * qde[:, self.j_j, 2, None] ** 2
         g = np.zeros((q.shape[0], self.m))
-        g[:, :2 * self.nj] = (gi - gj).reshape(q.shape[0], -1)
+        for grp, d in zip(self.joint_groups, self._drives(motion, q.shape[0])):
+            g[:, grp.rows] = grp.gamma(qe, qde, d)
         return g
 
     def marker_positions(self, q: np.ndarray) -> np.ndarray:
         """Global positions of all markers, (N, n_markers, 2)."""
         qe = self._ext(q)
-        return qe[:, self.mk_body, :2] + _rot_apply(qe[:, self.mk_body, 2], self.mk_u)
+        return qe[:, self.mk_body, :2] + rot_apply(qe[:, self.mk_body, 2], self.mk_u)
 
     def marker_velocities(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Global velocities of all markers, (N, n_markers, 2)."""
         qe, qde = self._ext(q), self._ext(qd)
-        arm = _perp(_rot_apply(qe[:, self.mk_body, 2], self.mk_u))
+        arm = perp(rot_apply(qe[:, self.mk_body, 2], self.mk_u))
         return qde[:, self.mk_body, :2] + arm * qde[:, self.mk_body, 2, None]
+
+    def marker_accelerations(self, q: np.ndarray, qd: np.ndarray,
+                             qdd: np.ndarray) -> np.ndarray:
+        """Global accelerations of all markers, ``r̈ + B u φ̈ - A u φ̇²``, (N, n_markers, 2)."""
+        qe, qde, qdde = self._ext(q), self._ext(qd), self._ext(qdd)
+        arm = rot_apply(qe[:, self.mk_body, 2], self.mk_u)
+        return (qdde[:, self.mk_body, :2] + perp(arm) * qdde[:, self.mk_body, 2, None]
+                - arm * qde[:, self.mk_body, 2, None] ** 2)
 
     def marker_reference(self) -> np.ndarray:
         """Marker positions at the reference pose, (n_markers, 2)."""
@@ -220,35 +346,66 @@ class PlanarMultibodySolver:
         N = q.shape[0]
         Q = np.zeros((N, self.n))
         phi = q[:, 3 * body + 2]
-        arm = _perp(_rot_apply(phi, u))
+        arm = perp(rot_apply(phi, u))
         Q[:, 3 * body:3 * body + 2] = force
         Q[:, 3 * body + 2] = np.sum(arm * force, axis=-1)
         return Q
 
-    def generalized_forces(self, q: np.ndarray, loads: np.ndarray | None = None) -> np.ndarray:
-        """``Q = F_e`` (N, n): gravity plus the point loads of magnitudes ``loads`` (N, nl)."""
+    def generalized_forces(self, q: np.ndarray, loads: np.ndarray | None = None,
+                           qd: np.ndarray | None = None,
+                           params: Params | None = None) -> np.ndarray:
+        """``Q = F_e`` (N, n): gravity plus every force element, with the point loads'
+        magnitudes ``loads`` (N, n_loads; order :attr:`load_names`) and ``params``.
+        ``qd`` is needed when a damper has non-zero damping. An element whose parameters
+        are all zero contributes nothing and is skipped."""
         N = q.shape[0]
         Q = np.zeros((N, self.n))
         g = np.asarray(self.mechanism.gravity, dtype=float)
         if np.any(g):
             Q.reshape(N, self.nb, 3)[:, :, :2] += self.mass_diag.reshape(self.nb, 3)[:, :1] * g
-        if loads is not None and len(self.load_names):
+        active = [(grp, v) for grp, v in zip(self.force_groups,
+                                              self._force_values(N, loads, params))
+                  if v is not None]
+        if active:
             qe = self._ext(q)
-            bodies = self.mk_body[self.ld_marker]
-            u = self.mk_u[self.ld_marker]
-            F = np.asarray(loads)[..., None] * self.ld_dir  # (N, nl, 2)
-            arm = _perp(_rot_apply(qe[:, bodies, 2], u))
-            Qe = np.zeros((N, self.nb + 1, 3))
-            np.add.at(Qe, (slice(None), bodies, slice(0, 2)), F)
-            np.add.at(Qe, (slice(None), bodies, 2), np.sum(arm * F, axis=-1))
-            Q += Qe[:, :self.nb].reshape(N, self.n)
+            qde = None if qd is None else self._ext(qd)
+            for grp, v in active:
+                Q += grp.generalized_force(qe, qde, v).reshape(N, -1) @ grp.scatter
         return Q
+
+    def spring(self, name: str, q: np.ndarray, qd: np.ndarray | None = None,
+               params: Params | None = None, qdd: np.ndarray | None = None) -> SpringState:
+        """The spring element ``name`` at N states (rate needs ``qd``, ``ℓ̈`` also ``qdd``)."""
+        gi, k = self._force_group.get(name, (None, None))
+        grp = None if gi is None else self.force_groups[gi]
+        if not isinstance(grp, ScalarSpringGroup):
+            springs = [n for g in self.force_groups if isinstance(g, ScalarSpringGroup)
+                       for n in g.names]
+            raise ValueError(f'{self.mechanism.name}: {name!r} is not a spring element '
+                             f'(springs: {springs})')
+        qe = self._ext(q)
+        qde = None if qd is None else self._ext(qd)
+        values = self._force_values(q.shape[0], None, params)[gi]
+        if values is None:  # all zero
+            values = {p: np.zeros((q.shape[0], len(grp.names))) for p in grp.parameters}
+        ell, ell_d, f, grad = grp.tension(qe, qde, values)
+        acc = np.full(q.shape[0], np.nan)
+        if qdd is not None and qde is not None:
+            acc = (grp.rate(grad, self._ext(qdd)) + grp.quadratic(qe, qde))[:, k]
+        direction = grp.directions(qe)[:, k]
+        return SpringState(length=ell[:, k], deflection=ell[:, k] - grp.free_length[k],
+                           rate=ell_d[:, k], acceleration=acc, force=f[:, k],
+                           direction=direction, end_forces=f[:, k, None, None] * direction,
+                           bodies=tuple(self._name(b) for b in grp.bodies[k]))
+
+    def _name(self, index: int) -> str:
+        return GROUND if index == self.nb else self.body_names[index]
 
     # ---------------------------------------------------------------- dynamics
     def solve_augmented(self, q: np.ndarray, qd: np.ndarray, Q: np.ndarray,
                         baumgarte: tuple[float, float] | None = None,
-                        Cq: np.ndarray | None = None,
-                        method: str = 'schur') -> tuple[np.ndarray, np.ndarray]:
+                        Cq: np.ndarray | None = None, method: str = 'schur',
+                        motion: Motion | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Solve eq. 11 for ``q̈`` (N, n) and ``λ`` (N, m), batched over N states
         (``Cq``: the constraint Jacobian at ``q`` if the caller already has it).
 
@@ -261,11 +418,11 @@ class PlanarMultibodySolver:
         N, n, m = q.shape[0], self.n, self.m
         if Cq is None:
             Cq = self.constraint_jacobian(q)
-        rhs_c = self.gamma(q, qd)
+        rhs_c = self.gamma(q, qd, motion)
         if baumgarte is not None:
             alpha, beta = baumgarte
-            rhs_c = rhs_c - 2.0 * alpha * np.einsum('nij,nj->ni', Cq, qd) \
-                - beta**2 * self.constraints(q)
+            rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
+                     - beta**2 * self.constraints(q, motion))
         if method == 'schur':
             CMi = Cq * (1.0 / self.mass_diag)
             lam = _batched_solve(CMi @ Cq.transpose(0, 2, 1),
@@ -282,26 +439,75 @@ class PlanarMultibodySolver:
         x = _batched_solve(A, b, 'augmented system (eq. 11)')
         return x[:, :n], x[:, n:]
 
-    def joint_reactions(self, lam: np.ndarray) -> np.ndarray:
-        """Force each joint applies on its first body, global axes, (N, n_joints, 2).
+    def reactions(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """What every joint (the mechanism's, then the fixed bodies' welds, order
+        :attr:`joint_names`) applies on each of its bodies (:attr:`joint_bodies`; a
+        prescribed joint has one): (N, n_joints, 2, 3) = force (x, z) and torque about
+        that body's CG (about the origin for the ground), ``-(∂C_k/∂q_b)ᵀ λ_k``."""
+        qe = self._ext(q)
+        out = np.zeros((q.shape[0], len(self.joint_names), 2, 3))
+        for g in self.joint_groups:
+            out[:, g.members, :g.n_bodies] = g.reactions(qe, lam[:, g.rows])
+        return out
 
-        The constraint force on the bodies is ``-C_qᵀ λ``; for joint k it is ``-λ_k`` on
-        its first body and ``+λ_k`` on the second.
-        """
-        return -lam[:, :2 * self.nj].reshape(lam.shape[0], self.nj, 2)
+    def joint_reactions(self, lam: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Force each of the mechanism's joints applies on its first body, global axes,
+        (N, n_joints, 2) (for a revolute joint ``-λ_k``; ``+λ_k`` acts on the second body).
+
+        Joints whose force direction turns with the bodies (prismatic) need the positions
+        ``q``; for the others the force follows from ``λ`` alone."""
+        if q is not None:
+            return self.reactions(q, lam)[:, :self.nj, 0, :2]
+        moving = [n for g in self.joint_groups if not g.constant_force_jacobian for n in g.names]
+        if moving:
+            raise ValueError(f'{self.mechanism.name}: the reactions of {moving} depend on the '
+                             'pose: pass q')
+        return -(lam @ self._first_force.T).reshape(lam.shape[0], self.nj, 2)
+
+    def body_reaction(self, body: str, q: np.ndarray, lam: np.ndarray,
+                      point: ArrayLike | None = None,
+                      joints: list[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Total force (N, 2) and torque (N,) that the joints attached to ``body`` (or the
+        ground; only those in ``joints`` if given) apply on it, the torque about the
+        global ``point`` ((2,) or (N, 2); default: the body's CG, the origin for the
+        ground)."""
+        if body not in self.body_names + [GROUND]:
+            raise ValueError(f'{self.mechanism.name}: unknown body {body!r}')
+        chosen = self.joint_names if joints is None else joints
+        unknown = sorted(set(chosen) - set(self.joint_names))
+        if unknown:
+            raise ValueError(f'{self.mechanism.name}: unknown joints {unknown}')
+        R = self.reactions(q, lam)
+        F = np.zeros((q.shape[0], 2))
+        M = np.zeros(q.shape[0])
+        for k, name in enumerate(self.joint_names):
+            for s, b in enumerate(self.joint_bodies[k]):
+                if b == body and name in chosen:
+                    F += R[:, k, s, :2]
+                    M += R[:, k, s, 2]
+        if point is not None:
+            cg = self._ext(q)[:, self.nb if body == GROUND else self.body_names.index(body), :2]
+            M = M + cross(cg - np.asarray(point, dtype=float), F)
+        return F, M
 
     def kinetic_energy(self, qd: np.ndarray) -> np.ndarray:
         return 0.5 * np.sum(self.mass_diag * qd**2, axis=-1)
 
-    def potential_energy(self, q: np.ndarray) -> np.ndarray:
-        """Gravity potential energy (zero when gravity is off)."""
+    def potential_energy(self, q: np.ndarray, params: Params | None = None) -> np.ndarray:
+        """Gravity plus spring potential energy ``½ k (ℓ - ℓ0)²`` (N,)."""
         g = np.asarray(self.mechanism.gravity, dtype=float)
         q3 = q.reshape(q.shape[0], self.nb, 3)
         m = self.mass_diag.reshape(self.nb, 3)[:, 0]
-        return -np.sum(m * (q3[:, :, 0] * g[0] + q3[:, :, 1] * g[1]), axis=-1)
+        V = -np.sum(m * (q3[:, :, 0] * g[0] + q3[:, :, 1] * g[1]), axis=-1)
+        qe = self._ext(q)
+        for grp, v in zip(self.force_groups, self._force_values(q.shape[0], None, params)):
+            if v is not None:
+                V = V + np.sum(grp.potential(qe, v), axis=-1)
+        return V
 
     # ---------------------------------------------------------------- partitioning
-    def positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None) -> np.ndarray:
+    def positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None,
+                  motion: Motion | None = None) -> np.ndarray:
         """All coordinates (N, n) consistent with the independent ones (N, dof): Newton on
         ``C(q) = 0`` for the dependent coordinates, from ``guess`` or from the reference
         pose moved along its tangent (a first-order prediction: one Newton step fewer).
@@ -311,38 +517,58 @@ class PlanarMultibodySolver:
         converged comes back bit for bit, whatever the others do)."""
         self.calls['positions'] += 1
         q_ind = np.asarray(q_ind, dtype=float)
+        return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]))
+
+    def _positions(self, q_ind: np.ndarray, guess: np.ndarray | None,
+                   drives: list[np.ndarray | None]) -> np.ndarray:
         if not np.all(np.isfinite(q_ind)):
             raise MultibodyError(f'{self.mechanism.name}: non-finite independent coordinate')
         N = q_ind.shape[0]
         if guess is None:  # the reference pose moved along its tangent
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
+            if any(d is not None for d in drives):  # and along the drives' (-C_q,dep⁻¹ C)
+                q0e = self._ext(self.q0[None].repeat(N, 0))
+                C0 = [g.residual(q0e, d).reshape(N, -1) for g, d in zip(self.joint_groups, drives)
+                      if g.rheonomic]
+                q[:, self.dep] -= np.concatenate(C0, axis=1) @ self._drive_tangent0.T
         else:
             q = guess.copy()
         q[:, self.ind] = q_ind
-        todo = np.arange(N)
+        todo = None  # the states still iterating (None: all of them)
         for it in range(self.newton_max_iter + 1):
-            qa = q[todo]
-            arms = self._joint_arms(qa)
-            C = self._constraints(qa, arms)
+            qa = q if todo is None else q[todo]
+            qe = self._ext(qa)
+            C = np.empty((qa.shape[0], self.m))
+            blocks = []
+            for g, d in zip(self.joint_groups,
+                            drives if todo is None else self._subset(drives, todo)):
+                C[:, g.rows], J = g.residual_jacobian(qe, d)
+                blocks.append(J)
             open_ = np.max(np.abs(C), axis=1, initial=0.0) >= self.newton_tol
             if not np.any(open_):
                 return q
             if it == self.newton_max_iter:
                 break
-            todo, qa, C = todo[open_], qa[open_], C[open_]
-            J = self.constraint_jacobian(qa, (arms[0][open_], arms[1][open_]))[:, :, self.dep]
-            q[np.ix_(todo, self.dep)] = qa[:, self.dep] - _batched_solve(
-                J, C, 'position analysis C(q) = 0')
-        worst = float(np.max(np.abs(self.constraints(q))))
+            if not np.all(open_):
+                todo = np.flatnonzero(open_) if todo is None else todo[open_]
+                qe, qa, C, blocks = qe[open_], qa[open_], C[open_], [b[open_] for b in blocks]
+            step = _batched_solve(self._jacobian(qe, blocks)[:, :, self.dep], C,
+                                  'position analysis C(q) = 0')
+            if todo is None:
+                q[:, self.dep] -= step
+            else:
+                q[np.ix_(todo, self.dep)] = qa[:, self.dep] - step
+        worst = float(np.max(np.abs(self._constraints(self._ext(q), drives))))
         raise MultibodyError(
             f'{self.mechanism.name}: position analysis did not converge in '
             f'{self.newton_max_iter} Newton iterations (max |C| = {worst:.2e}); the '
             'independent coordinate is out of the mechanism\'s range')
 
     def velocities(self, q: np.ndarray, qd_ind: np.ndarray, Cq: np.ndarray | None = None,
-                   max_sensitivity: float | None = None) -> np.ndarray:
-        """All velocities (N, n) from the independent ones: ``C_q q̇ = 0``.
+                   max_sensitivity: float | None = None,
+                   motion: Motion | None = None) -> np.ndarray:
+        """All velocities (N, n) from the independent ones: ``C_q q̇ = ν``.
 
         With ``max_sensitivity``, a state where some dependent coordinate moves more than
         that many times faster per unit of independent motion than at the reference pose
@@ -355,6 +581,9 @@ class PlanarMultibodySolver:
             Cq = self.constraint_jacobian(q)
         C_ind = Cq[:, :, self.ind]
         rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
+        nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
+        if nu is not None:
+            rhs = rhs + nu
         if max_sensitivity is None:
             qd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'velocity analysis')
             return qd
@@ -371,20 +600,77 @@ class PlanarMultibodySolver:
                 'the edge of its range of motion')
         return qd
 
+    def accelerations(self, q: np.ndarray, qd: np.ndarray, qdd_ind: np.ndarray,
+                      Cq: np.ndarray | None = None, motion: Motion | None = None) -> np.ndarray:
+        """Acceleration analysis: all accelerations (N, n) from the independent ones,
+        ``C_q q̈ = γ`` at consistent positions and velocities (no forces involved)."""
+        qdd = np.zeros_like(q)
+        qdd[:, self.ind] = qdd_ind
+        if Cq is None:
+            Cq = self.constraint_jacobian(q)
+        rhs = self.gamma(q, qd, motion) - np.einsum('nij,nj->ni', Cq[:, :, self.ind],
+                                                    qdd[:, self.ind])
+        qdd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'acceleration analysis')
+        return qdd
+
     def consistent_state(self, q_ind: np.ndarray, qd_ind: np.ndarray,
-                         guess: np.ndarray | None = None) -> MultibodyState:
+                         guess: np.ndarray | None = None,
+                         motion: Motion | None = None) -> MultibodyState:
         """Consistent positions and velocities from the independent coordinates and rates."""
-        q = self.positions(np.atleast_2d(q_ind), guess)
+        q = self.positions(np.atleast_2d(q_ind), guess, motion)
         Cq = self.constraint_jacobian(q)
-        return MultibodyState(q=q, qd=self.velocities(q, np.atleast_2d(qd_ind), Cq), Cq=Cq)
+        return MultibodyState(q=q, qd=self.velocities(q, np.atleast_2d(qd_ind), Cq,
+                                                      motion=motion), Cq=Cq)
 
     def dynamics(self, q_ind: np.ndarray, qd_ind: np.ndarray, loads: np.ndarray | None,
-                 guess: np.ndarray | None = None) -> MultibodyState:
-        """Everything at N states given by independent coordinates, rates and load magnitudes."""
-        st = self.consistent_state(q_ind, qd_ind, guess)
-        st.qdd, st.lam = self.solve_augmented(st.q, st.qd,
-                                              self.generalized_forces(st.q, loads), Cq=st.Cq)
+                 guess: np.ndarray | None = None, motion: Motion | None = None,
+                 params: Params | None = None) -> MultibodyState:
+        """Everything at N states given by independent coordinates, rates, load magnitudes,
+        prescribed motion and force parameters."""
+        st = self.consistent_state(q_ind, qd_ind, guess, motion)
+        Q = self.generalized_forces(st.q, loads, st.qd, params)
+        st.qdd, st.lam = self.solve_augmented(st.q, st.qd, Q, Cq=st.Cq, motion=motion)
         return st
+
+    # ---------------------------------------------------------------- checks
+    def _check_travel(self, travel: tuple[float, float]) -> None:
+        """The linkage passes its wheel travel range (the single independent coordinate,
+        from the reference pose) without locking: position analysis by continuation in
+        :data:`TRAVEL_STEPS` steps each way, each started from the last pose moved along
+        its tangent. It locks where Newton's method fails, where the linkage moves more
+        than :data:`TOGGLE_SENSITIVITY` times faster than at its reference pose (a toggle,
+        see :meth:`velocities`), or where the converged pose is farther from the
+        prediction than the predicted step itself (no nearby pose: Newton found another
+        assembly). A ConfigError names the travel step and the joints that lock."""
+        none = [None] * len(self.joint_groups)
+        ind0 = self.q0[self.ind]
+        for end in (travel[1], travel[0]):
+            q, qd = self.q0[None], self.velocities(self.q0[None], np.ones((1, 1)))
+            zs = np.linspace(0.0, end, TRAVEL_STEPS + 1)
+            for z, dz in zip(zs[1:], np.diff(zs)):
+                step = qd * dz
+                try:
+                    q_new = self._positions(np.array([ind0 + z]), q + step, none)
+                    if np.max(np.abs(q_new - q - step)) > np.max(np.abs(step)):
+                        raise MultibodyError('no pose near the last one: the end of its '
+                                             'range of motion')
+                    qd = self.velocities(q_new, np.ones((1, 1)),
+                                         max_sensitivity=TOGGLE_SENSITIVITY)
+                except MultibodyError as err:
+                    raise ConfigError(
+                        f'{self.mechanism.name}: suspension.travel: the linkage locks between '
+                        f'wheel travel {z - dz:+.4g} and {z:+.4g} m, inside its travel range '
+                        f'[{travel[0]:g}, {travel[1]:g}] m (joints {self._locking_joints(q)}): '
+                        + str(err).removeprefix(f'{self.mechanism.name}: ')) from None
+                q = q_new
+
+    def _locking_joints(self, q: np.ndarray) -> list[str]:
+        """Joints carrying the left singular vector of ``C_q,dep`` at ``q`` (the
+        constraints that become dependent: the loop that locks)."""
+        Cd = self.constraint_jacobian(q)[0][:, self.dep]
+        y = np.abs(np.linalg.svd(Cd)[0][:, -1])
+        return [name for name, rows in zip(self.joint_names, self.joint_rows)
+                if np.max(y[rows], initial=0.0) > 0.1 * np.max(y)]
 
 
 def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:

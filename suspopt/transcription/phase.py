@@ -28,7 +28,7 @@ def timeseries_names(spec: VehicleSpec, fidelity: str) -> tuple[str, ...]:
     """Signals recorded along the trajectory (beyond the states)."""
     chassis = ('zdd_C', 'thdd_C') + (('phidd_C',) if spec.layout.has_roll else ())
     forces = ('zdd_W', 'F_S', 'F_T', 'delta', 'z_M') + (('F_R',) if spec.bars[0] else ())
-    mixed = ('q_U', 'q_W', 'reactions') if fidelity == 'mixed' else ()
+    mixed = ('q_W', 'reactions') if fidelity == 'mixed' else ()
     return chassis + forces + mixed
 
 

@@ -1,0 +1,75 @@
+"""Linear spring-damper along an axis fixed in the body of its first marker (Exudyn's
+``ObjectConnectorLinearSpringDamper``, made conservative): the length is the distance
+along the axis from marker 0 to marker 1,
+
+    ℓ = (A(φ_0) ā)ᵀ (p_1 - p_0),   f = k (ℓ - ℓ0) + c ℓ̇  (tension),   Q = -f (∂ℓ/∂q)ᵀ
+
+(:func:`~suspopt.multibody.elements.base.axis_projection`): force ``-f n`` on end 1 and
+``+f n`` on body 0, ``n = A(φ_0) ā``. ``Q = -∂V/∂q`` of ``V = ½ k (ℓ - ℓ0)²``, so body 0's
+force acts on the line through ``p_1``; Exudyn's element applies it at ``p_0`` and takes
+``ℓ̇`` without the axis' rotation. Both are the same when body 0 does not rotate (a fixed
+or translating frame, e.g. the vertical suspension spring of SPEC §3, which with the
+spring point on the arm as end 1 gives the point load ``-F_S`` of paper eq. 12 there,
+``F_S = k q^z_U + c q̇^z_U``). ``ℓ0`` defaults to the reference value of ``ℓ``, which must
+be > 0: the axis points from marker 0 towards marker 1.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from suspopt.multibody.elements.base import (ScalarSpringGroup, axis_projection,
+                                             axis_projection_quadratic, read_spring_common,
+                                             rot_apply, spring_spec_keys)
+
+
+@dataclass(frozen=True)
+class LinearSpringDamper:
+    """Spring-damper along the unit ``axis`` (global at the reference pose, fixed in the
+    body of ``markers[0]``) between ``markers[0]`` and ``markers[1]``."""
+
+    name: str
+    markers: tuple[str, str]
+    axis: tuple[float, float]
+    stiffness: float = 0.0
+    damping: float = 0.0
+    preload: float = 0.0
+    free_length: float | None = None
+    type: ClassVar[str] = 'linear_spring_damper'
+    keys: ClassVar[dict[str, bool]] = {**spring_spec_keys(), 'axis': True}
+
+    @classmethod
+    def read(cls, rd, data: dict, where: str, name: str) -> LinearSpringDamper:
+        common = read_spring_common(rd, data, where)
+        axis = rd.unit_axis(data, 'axis', where)
+        m0, m1 = common['markers']
+        if (m0 in rd.markers and m1 in rd.markers and np.all(np.isfinite(axis))
+                and rd.markers[m0][0] != rd.markers[m1][0]):
+            (x0, z0), (x1, z1) = rd.markers[m0][1], rd.markers[m1][1]
+            ref = axis[0] * (x1 - x0) + axis[1] * (z1 - z0)
+            if not ref > 0.0:
+                rd.err(f'{where}.axis', f'must point from marker {m0!r} towards marker '
+                       f'{m1!r}: their reference distance along it is {ref:g}, not > 0')
+        return cls(name=name, axis=axis, **common)
+
+
+class LinearSpringDamperGroup(ScalarSpringGroup):
+
+    def setup(self, specs, layout):
+        axis = np.array([s.axis for s in specs], dtype=float).reshape(-1, 2)
+        self.axis = rot_apply(-layout.angle0(self.bodies[:, 0]), axis)  # in body 0's axes
+
+    def measure(self, qe):
+        return axis_projection(qe, self.bodies, self.u, self.axis)
+
+    def quadratic(self, qe, qde):
+        return axis_projection_quadratic(qe, qde, self.bodies, self.u, self.axis)
+
+    def directions(self, qe):
+        n = rot_apply(qe[:, self.bodies[:, 0], 2], self.axis)
+        return np.stack([n, -n], 2)
+
+
+LinearSpringDamper.group = LinearSpringDamperGroup
