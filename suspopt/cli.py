@@ -194,6 +194,15 @@ def cmd_pareto(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Many optimizations or studies in parallel on Dask (see suspopt.sweep)."""
+    from suspopt.sweep import run_sweep
+    log = (lambda msg: None) if args.quiet else None
+    outcome = run_sweep(args.file, args.out, workers=args.workers, scheduler=args.scheduler,
+                        retry_failed=args.retry_failed, log=log)
+    return outcome.exit_code
+
+
 def cmd_init(args: argparse.Namespace) -> int:
     from suspopt.config import default_config_toml
     path = Path(args.file)
@@ -272,6 +281,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
     p.add_argument('--quiet', action='store_true', help='no progress lines')
     p.set_defaults(func=cmd_pareto)
+
+    p = sub.add_parser('sweep', help='many optimizations or studies in parallel on Dask '
+                                     '(a sweep file: axes or a task list)', epilog=EPILOG)
+    p.add_argument('file', help='sweep file (TOML); see examples/sweep.toml')
+    p.add_argument('--out', required=True, metavar='DIR',
+                   help='output directory; rerunning with it resumes the sweep')
+    p.add_argument('--workers', type=int, metavar='N',
+                   help='local worker processes (default: one per core)')
+    p.add_argument('--scheduler', metavar='tcp://HOST:PORT',
+                   help='run on an existing Dask cluster instead of a local one')
+    p.add_argument('--retry-failed', action='store_true', dest='retry_failed',
+                   help='when resuming, rerun the tasks that failed')
+    p.add_argument('--quiet', action='store_true', help='no progress lines')
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser('init', help="write the paper's case as a commented study file")
     p.add_argument('file')
