@@ -466,7 +466,7 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
 def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     """Run one task from its plain description; never raises for a failed task: the
     failure (one line and its traceback) is the record returned."""
-    t0 = time.time()
+    t0, cpu0 = time.time(), time.process_time()
     worker = _announce(payload.get('topic'), {'op': 'start', 'task': payload['name'],
                                                'pid': os.getpid(), 'time': t0})
     _quiet_libraries()
@@ -497,6 +497,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
         rec['traceback'] = traceback.format_exc()
     rec['finished'] = time.time()
     rec['wall_time_s'] = rec['finished'] - t0
+    rec['cpu_time_s'] = time.process_time() - cpu0
     return json.loads(json.dumps(rec, default=_plain))  # plain data (numpy → lists/floats)
 
 
@@ -846,7 +847,10 @@ def _plot_multistart(ax, groups, sweep: Sweep) -> str:
               for k, dv in sweep.description['base_config']['design'].items()}
     parts = []
     for g, pts in groups.items():
-        pts = sorted(pts, key=lambda p: p[1]['objective'])
+        pts = sorted((p for p in pts if all(p[1].get(k) is not None for k in bounds)),
+                     key=lambda p: p[1]['objective'])
+        if not pts:
+            continue
         cl = distinct_optima([{k: r[k] for k in bounds} for _, r in pts], bounds)
         n = max(cl) + 1
         parts.append(f'{g + ": " if g else ""}{n} distinct optim{"um" if n == 1 else "a"} '
@@ -1051,13 +1055,16 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                 if rec['state'] == 'failed':
                     say(f'{name} failed: {rec["error"]}')
                 progress()
+        outcome.timings['run_s'] = time.perf_counter() - t_run
     except KeyboardInterrupt:
         outcome.exit_code = 130
         say('interrupted: cancelling pending tasks; finished ones are kept')
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+        t_down = time.perf_counter()
         _shutdown(client, cluster, list(in_flight.values()))
+        outcome.timings['shutdown_s'] = time.perf_counter() - t_down
 
 
 def _collect(fut, task: Task, killed_type) -> dict[str, Any] | None:

@@ -231,16 +231,18 @@ def cluster(tmp_path_factory):
         client = Client(address, timeout='30s')
         client.wait_for_workers(2, timeout=60)
         yield address, client
-        client.close()
+        client.shutdown()  # scheduler and workers (nannies included) exit
     finally:
-        for p in reversed(procs):
-            p.terminate()
         for p in procs:
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=10)
             except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+                p.terminate()
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
 
 
 LIST = """
@@ -272,14 +274,14 @@ def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cl
 
 
 
-def _kill_running_worker(client, out: Path, kills: int, proc) -> list[int]:
+def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
     """SIGKILL the worker process running the sweep's only task, ``kills`` times: first
     once the task has started (its output directory exists), then each rerun once it is
     on a live worker. Which worker: the scheduler's ``processing``; its pid: asked of that
     worker through the client (the scheduler's identity of a worker has no pid)."""
     killed: list[int] = []
     deadline = time.monotonic() + 90
-    while len(killed) < kills and time.monotonic() < deadline and proc.poll() is None:
+    while len(killed) < kills and time.monotonic() < deadline and runner.is_alive():
         busy = [w for w, keys in client.processing().items() if keys]
         if busy and list((out / 'tasks').glob('*/output')):
             try:
@@ -297,25 +299,30 @@ def _kill_running_worker(client, out: Path, kills: int, proc) -> list[int]:
 
 @pytest.mark.parametrize('kills', [1, 2])
 def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
+    """The sweep runs in a thread here (its client is its own); this thread kills."""
+    import threading
     address, client = cluster
     path = _files(tmp_path, f'study = "study.toml"\n[axes]\n"maneuver.speed" = [{11 + kills}.0]\n')
     out = tmp_path / 'out'
-    proc = subprocess.Popen([sys.executable, '-m', 'suspopt.cli', 'sweep', str(path), '--out',
-                             str(out), '--scheduler', address], stderr=subprocess.PIPE,
-                            text=True)
-    killed = _kill_running_worker(client, out, kills, proc)
-    _, err = proc.communicate(timeout=120)
+    lines: list[str] = []
+    done: dict = {}
+    runner = threading.Thread(target=lambda: done.update(outcome=run_sweep(
+        path, out, scheduler=address, log=lines.append)))
+    runner.start()
+    killed = _kill_running_worker(client, out, kills, runner)
+    runner.join(timeout=120)
+    err = '\n'.join(lines)
     assert len(killed) == kills, err
     rec = next(iter(_records(out).values()))
     if kills == 1:  # rerun on another worker process, finished
-        assert proc.returncode == 0, err
+        assert done['outcome'].exit_code == 0, err
         assert 'its worker process died; rerun on' in err and '(attempt 2)' in err
         assert rec['state'] == 'done' and rec['attempts'] == 2 and rec['pid'] not in killed
     else:  # died twice: recorded as failed with the cause
-        assert proc.returncode == 1, err
+        assert done['outcome'].exit_code == 1, err
         assert rec['state'] == 'failed' and rec['error'].startswith(
             'KilledWorker: its worker process died on each of 2 attempts')
-        assert 'failed: ' in err and 'KilledWorker' in err
+        assert f"failed: {rec['name']}: KilledWorker" in err
     client.wait_for_workers(2, timeout=60)  # the nannies restarted them
 
 
