@@ -711,8 +711,8 @@ def _rows(sweep: Sweep, records: dict[str, dict[str, Any]]) -> list[dict[str, An
     return [summary_row(t, records.get(t.name)) for t in sweep.tasks]
 
 
-def _columns(rows: list[dict[str, Any]]) -> list[str]:
-    cols: list[str] = []
+def _columns(rows: list[dict[str, Any]], axes: list[str]) -> list[str]:
+    cols: list[str] = ['task', 'state', *axes]
     for r in rows:
         cols += [k for k in r if k not in cols]
     return cols
@@ -725,7 +725,7 @@ def write_summary(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]],
     for r in rows:
         if r['task'] in running and r['state'] == 'pending':
             r['state'] = 'running'
-    cols = _columns(rows)
+    cols = _columns(rows, sweep.axes)
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=cols, lineterminator='\n')
     w.writeheader()
@@ -963,11 +963,13 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
         return client, None
     n = workers or len(os.sched_getaffinity(0))
     n = max(1, min(n, n_tasks))
-    with dask.config.set({'distributed.scheduler.allowed-failures': retries,
-                          'distributed.worker.daemon': True}):
-        cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1,
-                               dashboard_address=None, silence_logs=logging.CRITICAL,
-                               preload=['suspopt.sweep'])
+    with dask.config.set({'distributed.scheduler.allowed-failures': retries}):
+        try:
+            cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1,
+                                   dashboard_address=None, silence_logs=logging.CRITICAL,
+                                   preload=['suspopt.sweep'])
+        except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
+            raise SuspoptError(f'cannot start a local Dask cluster: {err}') from None
         client = Client(cluster)
     say(f'local cluster: {n} worker process(es), one thread each')
     return client, cluster
@@ -1059,6 +1061,9 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
     except KeyboardInterrupt:
         outcome.exit_code = 130
         say('interrupted: cancelling pending tasks; finished ones are kept')
+    except (OSError, TimeoutError) as err:  # CommClosedError is an OSError
+        raise SuspoptError(f'lost the Dask cluster ({type(err).__name__}: {err}); finished '
+                           'tasks are kept, rerun to resume') from None
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
