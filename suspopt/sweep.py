@@ -117,6 +117,7 @@ class Task:
     start: dict[str, float] | None
     config: dict[str, Any]         # canonical study description (absolute paths)
     verify: bool = True
+    start_index: int | None = None  # which of the sweep's distinct starts
 
     def payload(self, out_dir: Path, topic: str | None) -> dict[str, Any]:
         return {'name': self.name, 'command': self.command, 'fidelity': self.fidelity,
@@ -447,10 +448,11 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
                         else f'{where}: the same task twice')
             continue
         seen[digest] = i
-        label = _label(values, start_ids.get(json.dumps(start, sort_keys=True)))
+        start_index = start_ids.get(json.dumps(start, sort_keys=True))
+        label = _label(values, start_index)
         tasks.append(Task(name=f'{_safe(label)}-{digest[:8]}', label=label, values=values,
                           command=command, fidelity=ident['fidelity'], start=start,
-                          config=cfg, verify=verify))
+                          config=cfg, verify=verify, start_index=start_index))
     for p, wheres in problems.items():
         errs.append(f'{p} (in {wheres[0]}' + (f' and {len(wheres) - 1} more task(s))'
                                               if len(wheres) > 1 else ')'))
@@ -688,7 +690,10 @@ def summary_row(task: Task, rec: dict[str, Any] | None) -> dict[str, Any]:
     """One row of summary.csv / table.md (the one place a task's summary is computed)."""
     row: dict[str, Any] = {'task': task.name, 'state': (rec or {}).get('state', 'pending')}
     for k, v in task.values.items():
-        row[k] = _fmt(v) if not isinstance(v, (int, float)) or isinstance(v, bool) else v
+        if k == 'start':  # its index; the design itself is in task.json
+            row[k] = task.start_index
+        else:
+            row[k] = _fmt(v) if not isinstance(v, (int, float)) or isinstance(v, bool) else v
     if task.command == 'optimize':
         row['fidelity'] = task.fidelity
     final = final_step(task.command, (rec or {}).get('result') or {})
@@ -807,6 +812,7 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
         else:
             title = _plot_axis(ax, axis, groups)
         ax.set_title(title, fontsize=8)
+        _readable_y(ax, [r['objective'] for _, r in rows])
         ax.grid(alpha=0.3)
         fig.tight_layout()
         path = out / 'figures' / f'{_safe(axis)}.png'
@@ -818,6 +824,15 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
         plt.close(fig)
         written.append(path)
     return written
+
+
+def _readable_y(ax, values: list[float]) -> None:
+    """Plain tick labels; optima equal to many digits are not spread over the axis."""
+    lo, hi = min(values), max(values)
+    span = max(hi - lo, 1e-3 * max(abs(hi), abs(lo), 1e-12))
+    mid = 0.5 * (lo + hi)
+    ax.set_ylim(mid - 0.6 * span, mid + 0.6 * span)
+    ax.ticklabel_format(axis='y', useOffset=False, style='plain')
 
 
 def _plot_axis(ax, axis: str, groups) -> str:
@@ -835,6 +850,9 @@ def _plot_axis(ax, axis: str, groups) -> str:
                 label=g or None)
     if not numeric:
         ax.set_xticks(range(len(cats)), cats, rotation=20, fontsize=8)
+    elif all(isinstance(v, int) for pts in groups.values() for v, _ in pts):
+        from matplotlib.ticker import MaxNLocator
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel(axis)
     ax.set_ylabel('objective f')
     if 1 < len(groups) <= 10:
