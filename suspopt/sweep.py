@@ -943,9 +943,9 @@ def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | Non
                              say, task_fn)
             finally:
                 write_summary(out, sweep, records)
-                write_figures(out, sweep, records)
+                _figures(out, sweep, records, say)
         else:
-            write_figures(out, sweep, records)
+            _figures(out, sweep, records, say)
         rows = _rows(sweep, records)
         outcome.counts = _counts(rows)
         outcome.wall_time_s = time.perf_counter() - t0
@@ -960,6 +960,14 @@ def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | Non
             if r['state'] == 'failed':
                 say(f"  failed: {r['task']}: {r['error']}")
         return outcome
+
+
+def _figures(out: Path, sweep: Sweep, records: dict[str, dict], say) -> None:
+    """Figures are a view of the records: a failure to draw them is reported, not fatal."""
+    try:
+        write_figures(out, sweep, records)
+    except Exception as err:  # noqa: BLE001
+        say(f'figures not written: {type(err).__name__}: {err}')
 
 
 def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, retries: int,
