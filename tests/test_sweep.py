@@ -15,7 +15,6 @@ import pytest
 
 from suspopt.sweep import DirectoryLock, distinct_optima, load_sweep, run_sweep, run_task
 
-pytestmark = pytest.mark.slow
 DASK = str(Path(sys.executable).parent / 'dask')
 STUDY = """
 [maneuver]
@@ -59,17 +58,22 @@ def _records(out: Path) -> dict[str, dict]:
 
 
 # --------------------------------------------------------------------------- local cluster
-def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path, capsys):
+@pytest.mark.slow
+def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path, capsys,
+                                                                         cluster):
+    """On the external cluster (--scheduler); then, extended, on a local one (Ctrl-C)."""
     from suspopt.config import config_from_dict, load_config
     from suspopt.study import optimize
+    address, client = cluster
     path = _files(tmp_path, PRODUCT)
     out = tmp_path / 'out'
-    code, err = _cli(['sweep', str(path), '--out', str(out), '--workers', '2'], capsys)
+    code, err = _cli(['sweep', str(path), '--out', str(out), '--scheduler', address], capsys)
     assert code == 0, err
     recs = _records(out)
     assert len(recs) == 4 and all(r['state'] == 'done' for r in recs.values())
     assert all((out / 'tasks' / n / 'output' / 'cases.sql').exists() for n in recs)
-    assert 'local cluster: 2 worker process(es)' in err and 'done 4, running 0' in err
+    assert f'connected to {address}: 2 worker(s)' in err and 'done 4, running 0' in err
+    assert {r['worker'] for r in recs.values()} == set(client.scheduler_info()['workers'])
     rows = (out / 'summary.csv').read_text().splitlines()
     assert len(rows) == 5 and rows[0].startswith('task,state,maneuver.speed,road.seed')
     assert (out / 'figures' / 'maneuver.speed.png').exists()
@@ -97,15 +101,16 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
     assert code == 2 and 'road.seed: [0, 1] -> [0, 2]' in err and 'only adding tasks' in err
     assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
 
-    # a sweep file that only gains tasks is accepted; Ctrl-C (SIGINT to `suspopt sweep`)
-    # while the new tasks run: exit 130, cluster gone, finished tasks kept
+    # a sweep file that only gains tasks is accepted; on a local cluster of one worker,
+    # Ctrl-C (SIGINT to `suspopt sweep`) once one new task has finished: exit 130, the
+    # cluster's processes gone, finished tasks kept, the other new one still pending
     path.write_text(PRODUCT.replace('[10.0, 15.0]', '[10.0, 15.0, 20.0]'))
-    _interrupt(path, out, lambda: len(list((out / 'tasks').glob('*/output'))) > 4)
+    _interrupt(path, out, lambda: len(list((out / 'tasks').glob('*/task.json'))) > 4)
     recs = _records(out)
     assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
-    assert 4 <= len(recs) < 6 and all(r['state'] == 'done' for r in recs.values())
+    assert len(recs) == 5 and all(r['state'] == 'done' for r in recs.values())
     meta = json.loads((out / 'sweep.json').read_text())
-    assert meta['counts']['done'] == len(recs) and meta['counts']['pending'] == 6 - len(recs)
+    assert meta['counts']['done'] == 5 and meta['counts']['pending'] == 1
 
 
 def _interrupt(path: Path, out: Path, when) -> None:
@@ -122,6 +127,7 @@ def _interrupt(path: Path, out: Path, when) -> None:
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
+    assert 'local cluster: 1 worker process(es)' in err
     assert 'the sweep file changed (sweep.axes.maneuver.speed: [10, 15] -> [10, 15, 20]): ' \
            '2 new task(s); the 4 earlier task(s) are kept' in err
     assert 'interrupted: cancelling pending tasks' in err and 'Traceback' not in err
@@ -256,6 +262,7 @@ mode = "list"
 """
 
 
+@pytest.mark.slow
 def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cluster):
     address, _ = cluster
     path = _files(tmp_path, LIST)
@@ -297,6 +304,7 @@ def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
     return killed
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('kills', [1, 2])
 def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
     """The sweep runs in a thread here (its client is its own); this thread kills."""
@@ -347,6 +355,7 @@ def _coloring(seed: int):
     return _compute_coloring(rng.random((300, 300)) < 0.02, 'fwd')
 
 
+@pytest.mark.slow
 def test_coloring_cache_concurrent_stores_are_atomic(tmp_path):
     """Two processes store the same key at the same moment, many times, and a third
     reads it all the while: it is always a whole, loadable coloring, never a partial one."""
