@@ -20,7 +20,9 @@ Rerunning with the same directory resumes: finished tasks (succeeded or failed) 
 kept and skipped (``retry_failed`` reruns the failed ones). A sweep file may gain tasks
 (new axis values, new list entries): the new tasks run, the finished ones are kept. Any
 other change (a task removed or changed, a changed base study) is refused, naming what
-changed. One sweep per directory at a time (``.lock``, an advisory ``flock``).
+changed. A task is identified by its full canonical study description, fidelity and
+start, so a suspopt version whose study defaults differ also refuses an old directory.
+One sweep per directory at a time (``.lock``, an advisory ``flock``).
 
 Dask: a ``LocalCluster`` of one single-threaded worker process per core (or
 ``workers``), or an existing scheduler (``scheduler='tcp://host:port'``). At most as many
@@ -32,7 +34,11 @@ scheduler, which reruns the task on another worker; the scheduler's
 which the task errs with ``KilledWorker`` and is recorded as failed. (Dask's ``retries=``
 of ``submit`` is for tasks that *raise*; a task here never raises: its failure is its
 result.) Ctrl-C / SIGTERM cancel what is pending, close client and cluster, keep what
-finished.
+finished. On an external cluster a task already running finishes on its worker (Dask
+cannot stop a running thread) and its result is dropped; the rerun starts clean. Workers
+write ``tasks/<task>/output/`` themselves: remote workers need the same file system (the
+records, written by the client, are complete either way). ``dask worker --preload
+suspopt.sweep`` makes a worker ignore Ctrl-C meant for the sweep (local workers do).
 
 The only calls into the rest of suspopt are in :func:`suspopt_call`.
 """
