@@ -7,6 +7,7 @@
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
     suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
+    suspopt sweep FILE --out DIR [--workers N | --scheduler ADDR]   many runs on Dask
 
 A DESIGN is the design variables' values in order (``30000,30000,3000,3000`` for the half
 car's k_S1, k_S2, c_S1, c_S2) or by name (``k_S1=30000,c_S2=2500``; the others keep their
@@ -264,6 +265,15 @@ def cmd_pareto(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Many optimizations or studies in parallel on Dask (see suspopt.sweep)."""
+    from suspopt.sweep import run_sweep
+    log = (lambda msg: None) if args.quiet else None
+    outcome = run_sweep(args.file, args.out, workers=args.workers, scheduler=args.scheduler,
+                        retry_failed=args.retry_failed, log=log)
+    return outcome.exit_code
+
+
 def cmd_init(args: argparse.Namespace) -> int:
     from suspopt.config_file import default_config_toml
     path = Path(args.file)
@@ -374,6 +384,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help='comfort shares 0 ... 1 (default: %(default)s)')
     run_opts(p, 'results/pareto')
     p.set_defaults(func=cmd_pareto)
+
+    p = sub.add_parser('sweep', help='many optimizations or studies in parallel on Dask '
+                                     '(a sweep file: axes or a task list)', epilog=EPILOG)
+    p.add_argument('file', help='sweep file (TOML); see examples/sweep.toml')
+    p.add_argument('--out', required=True, metavar='DIR',
+                   help='output directory; rerunning with it resumes the sweep')
+    p.add_argument('--workers', type=int, metavar='N',
+                   help='local worker processes (default: one per core)')
+    p.add_argument('--scheduler', metavar='tcp://HOST:PORT',
+                   help='run on an existing Dask cluster instead of a local one')
+    p.add_argument('--retry-failed', action='store_true', dest='retry_failed',
+                   help='when resuming, rerun the tasks that failed')
+    p.add_argument('--quiet', action='store_true', help='no progress lines')
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser('kinematics', help='kinematic curves of a suspension mechanism: motion '
                                           'ratio, wheel rate, camber, track change',

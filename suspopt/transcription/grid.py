@@ -10,9 +10,8 @@ wheel-hop frequency over the design box (the fastest mode of the half and full c
 ``n_road`` the road's highest significant spatial frequency
 (:meth:`~suspopt.road.RoadProfile.max_frequency`) and ``P = 12.5`` collocation nodes per
 period of ``f``. Road content above twice the wheel-hop frequency reaches the objective
-only through the tyre's filtering and is not resolved. On the paper's car and road this
-gives 91 segments of order 5 (the measured minimum meeting SPEC's 0.1 % is about 80 × 5,
-``benchmarks/grid_convergence.py``); every study checks the grid against time marching.
+only through the tyre's filtering and is not resolved. Every result checks its grid
+against time marching (``benchmarks/grid_convergence.py`` measures the rule).
 """
 from __future__ import annotations
 

@@ -1,0 +1,398 @@
+"""suspopt sweep end to end: real Dask clusters (a LocalCluster, and a scheduler and
+workers started as subprocesses), real optimizations, real signals and killed workers."""
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from suspopt.sweep import DirectoryLock, distinct_optima, load_sweep, run_sweep, run_task
+
+DASK = str(Path(sys.executable).parent / 'dask')
+STUDY = """
+[maneuver]
+speed = 10.0
+horizon = 5.0
+[road]
+profile = "iso8608"
+seed = 0
+[transcription]
+segments = 24
+[objective]
+normalization = "custom"
+scales = [2.4, 1.56, 4.5e-4, 4.7e-4]
+"""
+PRODUCT = """
+study = "study.toml"
+command = "optimize"
+fidelity = "low"
+verify = false           # engine tests: 24 segments are quick, too coarse to verify
+[axes]
+"maneuver.speed" = [10.0, 15.0]
+road.seed = [0, 1]
+"""
+
+
+def _files(tmp_path: Path, sweep: str, name: str = 'sweep.toml') -> Path:
+    (tmp_path / 'study.toml').write_text(STUDY)
+    path = tmp_path / name
+    path.write_text(sweep)
+    return path
+
+
+def _cli(args, capsys):
+    from suspopt.cli import main  # here: the cache test's spawned writers import this module
+    code = main(args)
+    out = capsys.readouterr()
+    return code, out.err
+
+
+def _records(out: Path) -> dict[str, dict]:
+    return {p.parent.name: json.loads(p.read_text()) for p in (out / 'tasks').glob('*/task.json')}
+
+
+# --------------------------------------------------------------------------- local cluster
+@pytest.mark.slow
+def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path, capsys,
+                                                                         cluster):
+    """On the external cluster (--scheduler); then, extended, on a local one (Ctrl-C)."""
+    from suspopt.config import config_from_dict, load_config
+    from suspopt.study import optimize
+    address, client = cluster
+    path = _files(tmp_path, PRODUCT)
+    out = tmp_path / 'out'
+    code, err = _cli(['sweep', str(path), '--out', str(out), '--scheduler', address], capsys)
+    assert code == 0, err
+    recs = _records(out)
+    assert len(recs) == 4 and all(r['state'] == 'done' for r in recs.values())
+    assert all((out / 'tasks' / n / 'output' / 'cases.sql').exists() for n in recs)
+    assert f'connected to {address}: 2 worker(s)' in err and 'done 4, running 0' in err
+    assert {r['worker'] for r in recs.values()} == set(client.scheduler_info()['workers'])
+    rows = (out / 'summary.csv').read_text().splitlines()
+    assert len(rows) == 5 and rows[0].startswith('task,state,maneuver.speed,road.seed')
+    assert (out / 'figures' / 'maneuver.speed.png').exists()
+    assert (out / 'figures' / 'road.seed.png').exists()
+    meta = json.loads((out / 'sweep.json').read_text())
+    assert meta['counts']['done'] == 4 and len(meta['hash']) == 64
+
+    base = load_config(tmp_path / 'study.toml').to_dict()
+    for rec in recs.values():  # the same configurations, optimized serially here
+        speed, seed = rec['task']['values']['maneuver.speed'], rec['task']['values']['road.seed']
+        data = json.loads(json.dumps(base))
+        data['maneuver']['speed'], data['road']['seed'] = speed, seed
+        serial = optimize(config_from_dict(data), 'low')
+        assert rec['result']['objective'] == pytest.approx(serial['objective'], rel=1e-9, abs=0)
+
+    # resume: nothing reruns, no record is rewritten
+    stamps = {p: p.stat().st_mtime_ns for p in (out / 'tasks').glob('*/task.json')}
+    outcome = run_sweep(path, out, workers=2, log=lambda m: None)
+    assert outcome.exit_code == 0 and outcome.ran == 0 and outcome.counts['done'] == 4
+    assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
+
+    # a changed sweep file is refused, naming what changed
+    path.write_text(PRODUCT.replace('road.seed = [0, 1]', 'road.seed = [0, 2]'))
+    code, err = _cli(['sweep', str(path), '--out', str(out)], capsys)
+    assert code == 2 and 'road.seed: [0, 1] -> [0, 2]' in err and 'only adding tasks' in err
+    assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
+
+    # a sweep file that only gains tasks is accepted; on a local cluster of one worker,
+    # Ctrl-C (SIGINT to `suspopt sweep`) once one new task has finished: exit 130, the
+    # cluster's processes gone, finished tasks kept, the other new one still pending
+    path.write_text(PRODUCT.replace('[10.0, 15.0]', '[10.0, 15.0, 20.0]'))
+    _interrupt(path, out, lambda: len(list((out / 'tasks').glob('*/task.json'))) > 4)
+    recs = _records(out)
+    assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
+    assert len(recs) == 5 and all(r['state'] == 'done' for r in recs.values())
+    meta = json.loads((out / 'sweep.json').read_text())
+    assert meta['counts']['done'] == 5 and meta['counts']['pending'] == 1
+
+
+def _interrupt(path: Path, out: Path, when) -> None:
+    """Run ``suspopt sweep`` on a local cluster of one worker, SIGINT it once ``when()``;
+    check exit 130, the message, and that every process it started is gone."""
+    import psutil
+    proc = subprocess.Popen([sys.executable, '-m', 'suspopt.cli', 'sweep', str(path), '--out',
+                             str(out), '--workers', '1'], stderr=subprocess.PIPE, text=True)
+    children: set[int] = set()
+    deadline = time.monotonic() + 120
+    while not when() and time.monotonic() < deadline:
+        children |= {c.pid for c in psutil.Process(proc.pid).children(recursive=True)}
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert 'local cluster: 1 worker process(es)' in err
+    assert 'the sweep file changed (sweep.axes.maneuver.speed: [10, 15] -> [10, 15, 20]): ' \
+           '2 new task(s); the 4 earlier task(s) are kept' in err
+    assert 'interrupted: cancelling pending tasks' in err and 'Traceback' not in err
+    assert children
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and [p for p in children if psutil.pid_exists(p)]:
+        time.sleep(0.1)
+    assert not [p for p in children if psutil.pid_exists(p)
+                and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+
+
+# --------------------------------------------------------------------------- input checks
+BAD = [
+    ('[axes]\n"maneuver.sped" = [1.0]\n', "axes.maneuver.sped: not a study-file key (did you "
+                                          "mean 'maneuver.speed'?)"),
+    ('[axes]\n"road.seed" = []\n', 'axes.road.seed: empty list'),
+    ('[axes]\n"road.seed" = 3\n', 'axes.road.seed: must be a list of values'),
+    ('[axes]\n"maneuver.speed" = [10.0, -1.0]\n', 'maneuver.speed: must be > 0, got -1'),
+    ('[axes]\n"vehicle.front" = [1]\n', 'axes.vehicle.front: is a table'),
+    ('fidelty = "low"\n[axes]\n"road.seed" = [0]\n', "fidelty: unknown key (did you mean "
+                                                     "'fidelity'?)"),
+    ('fidelity = "medium"\n[axes]\n"road.seed" = [0]\n', 'fidelity: must be one of low, mixed'),
+    ('[axes]\n"road.height" = [0.1]\n', "road.height: unknown key for profile 'iso8608'"),
+    ('[axes]\nstart = [{ k_S1 = 1.0 }]\n', 'start.k_S1: 1 is outside the bounds'),
+    ('mode = "list"\n', 'tasks: mode = "list" needs a non-empty list'),
+    ('mode = "list"\n[[tasks]]\n"road.seed" = 1\n[[tasks]]\n"road.seed" = 1\n',
+     'tasks[1]: the same task as tasks[0]'),
+    ('[multistart]\nn = 0\n', 'multistart.n: must be an integer >= 1'),
+    ('[multistart]\nn = 4\nmethod = "grid"\n', 'multistart.method: must be one of'),
+    ('command = "study"\n[multistart]\nn = 4\n', "multistart: only for command = 'optimize'"),
+    ('[axes]\n', 'axes: nothing to sweep'),
+    ('[axes\n', 'not valid TOML'),
+]
+
+
+@pytest.mark.parametrize('text, message', BAD, ids=[b[1][:30] for b in BAD])
+def test_bad_sweep_files_exit_2_naming_the_key(tmp_path, capsys, text, message):
+    path = _files(tmp_path, 'study = "study.toml"\n' + text)
+    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'out')], capsys)
+    assert code == 2 and message in err, err
+    assert 'Traceback' not in err and not (tmp_path / 'out').exists()
+
+
+def test_refusals_exit_2(tmp_path, capsys):
+    path = _files(tmp_path, PRODUCT)
+    code, err = _cli(['sweep', str(tmp_path / 'nope.toml'), '--out', str(tmp_path / 'o')],
+                     capsys)
+    assert code == 2 and 'sweep file not found' in err
+    (tmp_path / 'busy').mkdir()
+    with DirectoryLock(tmp_path / 'busy'):  # a second sweep in the same directory
+        code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'busy')], capsys)
+    assert code == 2 and f'another sweep is running in this directory (pid {os.getpid()}' in err
+    (tmp_path / 'other').mkdir()
+    (tmp_path / 'other' / 'x.txt').write_text('x')
+    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'other')], capsys)
+    assert code == 2 and 'not a sweep directory' in err
+    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'o'), '--workers', '0'], capsys)
+    assert code == 2 and '--workers: must be >= 1' in err
+
+
+def test_multistart_spreads_starts_over_the_design_box(tmp_path):
+    path = _files(tmp_path, 'study = "study.toml"\n[axes]\n"road.seed" = [0, 1]\n'
+                            '[multistart]\nn = 8\nseed = 3\n')
+    sweep = load_sweep(path)
+    assert len(sweep.tasks) == 16 and sweep.axes == ['road.seed', 'start']
+    starts = [t.start for t in sweep.tasks if t.values['road.seed'] == 0]
+    for k, (lo, hi) in {'k_S1': (1e4, 5e4), 'c_S2': (1e3, 5e3)}.items():
+        strata = sorted(int((s[k] - lo) / (hi - lo) * 8) for s in starts)
+        assert strata == list(range(8))  # Latin hypercube: one start per stratum
+    assert len({t.name for t in sweep.tasks}) == 16 and sweep.tasks[0].label.endswith('start=0')
+    assert distinct_optima([{'a': 1.0}, {'a': 1.0005}, {'a': 2.0}], {'a': (0.0, 10.0)}) == [0, 0, 1]
+
+
+def test_a_failing_task_is_a_record_with_its_traceback(tmp_path):
+    """run_task itself (no cluster): the worker-side build fails, the record says why."""
+    bad = {'maneuver': {'speed': -1.0}}
+    rec = run_task({'name': 't', 'command': 'optimize', 'fidelity': 'low', 'start': None,
+                    'config': bad, 'verify': True, 'out_dir': str(tmp_path / 'o'),
+                    'topic': None})
+    assert rec['state'] == 'failed' and rec['worker'] is None
+    assert rec['error'] == 'ConfigError: maneuver.speed: must be > 0, got -1'
+    assert 'Traceback' in rec['traceback'] and 'ConfigError' in rec['traceback']
+
+
+# --------------------------------------------------------------------------- external cluster
+@pytest.fixture(scope='module')
+def cluster(tmp_path_factory):
+    """A real ``dask scheduler`` and two ``dask worker`` processes (nannies restart a
+    killed worker; the scheduler lets a task survive one worker death)."""
+    from distributed import Client
+    root = tmp_path_factory.mktemp('cluster')
+    env = {**os.environ, 'DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES': '1'}
+    sched_file = root / 'scheduler.json'
+    procs = [subprocess.Popen([DASK, 'scheduler', '--port', '0', '--no-dashboard',
+                               '--scheduler-file', str(sched_file)], env=env, cwd=root,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        deadline = time.monotonic() + 60
+        while not sched_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        for i in range(2):
+            procs.append(subprocess.Popen(
+                [DASK, 'worker', '--scheduler-file', str(sched_file), '--nthreads', '1',
+                 '--no-dashboard', '--preload', 'suspopt.sweep', '--name', f'w{i}'],
+                env=env, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        address = json.loads(sched_file.read_text())['address']
+        client = Client(address, timeout='30s')
+        client.wait_for_workers(2, timeout=60)
+        yield address, client
+        client.shutdown()  # scheduler and workers (nannies included) exit
+    finally:
+        for p in procs:
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.terminate()
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+
+
+LIST = """
+study = "study.toml"
+mode = "list"
+verify = false
+[[tasks]]
+"maneuver.speed" = 12.0
+[[tasks]]
+"maneuver.speed" = 14.0
+"optimizer.max_iter" = 1
+"""
+
+
+@pytest.mark.slow
+def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cluster):
+    address, _ = cluster
+    path = _files(tmp_path, LIST)
+    out = tmp_path / 'out'
+    code, err = _cli(['sweep', str(path), '--out', str(out), '--scheduler', address], capsys)
+    assert code == 1, err
+    assert f'connected to {address}: 2 worker(s)' in err and 'rerun up to 1 time(s)' in err
+    recs = sorted(_records(out).values(), key=lambda r: r['task']['values']['maneuver.speed'])
+    assert [r['state'] for r in recs] == ['done', 'failed']
+    assert recs[1]['error'] == 'IPOPT Maximum_Iterations_Exceeded after 1 iterations'
+    assert f"failed: {recs[1]['name']}: IPOPT Maximum_Iterations_Exceeded" in err
+    assert 'done 1, running 0, failed 1, total 2' in err
+    assert {r['worker'] for r in recs} <= set(cluster[1].scheduler_info()['workers'])
+    table = (out / 'table.md').read_text()
+    assert '2 tasks, 1 done, 1 failed' in table and 'Maximum_Iterations_Exceeded' in table
+
+
+
+def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
+    """SIGKILL the worker process running the sweep's only task, ``kills`` times: first
+    once the task has started (its output directory exists), then each rerun once it is
+    on a live worker. Which worker: the scheduler's ``processing``; its pid: asked of that
+    worker through the client (the scheduler's identity of a worker has no pid)."""
+    killed: list[int] = []
+    deadline = time.monotonic() + 90
+    while len(killed) < kills and time.monotonic() < deadline and runner.is_alive():
+        busy = [w for w, keys in client.processing().items() if keys]
+        if busy and list((out / 'tasks').glob('*/output')):
+            try:
+                pid = client.run(os.getpid, workers=busy[:1], on_error='return')[busy[0]]
+            except (KeyError, OSError):
+                pid = None
+            if isinstance(pid, int) and pid not in killed:
+                if killed:
+                    time.sleep(0.3)  # the rerun gets going (a task takes > 1 s)
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+        time.sleep(0.02)
+    return killed
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('kills', [1, 2])
+def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
+    """The sweep runs in a thread here (its client is its own); this thread kills."""
+    import threading
+    address, client = cluster
+    path = _files(tmp_path, f'study = "study.toml"\nverify = false\n[axes]\n'
+                            f'"maneuver.speed" = [{11 + kills}.0]\n')
+    out = tmp_path / 'out'
+    lines: list[str] = []
+    done: dict = {}
+    runner = threading.Thread(target=lambda: done.update(outcome=run_sweep(
+        path, out, scheduler=address, log=lines.append)))
+    runner.start()
+    killed = _kill_running_worker(client, out, kills, runner)
+    runner.join(timeout=120)
+    err = '\n'.join(lines)
+    assert len(killed) == kills, err
+    rec = next(iter(_records(out).values()))
+    if kills == 1:  # rerun on another worker process, finished
+        assert done['outcome'].exit_code == 0, err
+        assert 'its worker process died; rerun on' in err and '(attempt 2)' in err
+        assert rec['state'] == 'done' and rec['attempts'] == 2 and rec['pid'] not in killed
+    else:  # died twice: recorded as failed with the cause
+        assert done['outcome'].exit_code == 1, err
+        assert rec['state'] == 'failed' and rec['error'].startswith(
+            'KilledWorker: its worker process died on each of 2 attempts')
+        assert f"failed: {rec['name']}: KilledWorker" in err
+    client.wait_for_workers(2, timeout=60)  # the nannies restarted them
+
+
+# --------------------------------------------------------------------------- coloring cache
+def _store_many(key: str, barrier, rounds: int, cache: str, seed: int) -> None:
+    """Store ``key`` ``rounds`` times, each time at the same moment as the other writer
+    (the barrier), and check the file right after: always a whole coloring."""
+    os.environ['SUSPOPT_CACHE_DIR'] = cache
+    from suspopt import cache as cc
+    coloring = _coloring(seed)
+    for _ in range(rounds):
+        barrier.wait()
+        cc.store(key, coloring)
+        got = cc.load(key)
+        assert got is not None and got.shape == coloring.shape, 'partial coloring file'
+
+
+def _coloring(seed: int):
+    import numpy as np
+    import scipy.sparse as sp
+
+    from suspopt.driver.sparsity import Coloring, color_columns
+    rng = np.random.default_rng(seed)
+    pattern = sp.csc_matrix(rng.random((300, 300)) < 0.02)
+    coo = pattern.tocoo()
+    return Coloring(shape=(300, 300), rows=coo.row, cols=coo.col,
+                    colors=color_columns(pattern))
+
+
+@pytest.mark.slow
+def test_coloring_cache_concurrent_stores_are_atomic(tmp_path):
+    """Two processes store the same key at the same moment, many times, and a third
+    reads it all the while: it is always a whole, loadable coloring, never a partial one."""
+    from suspopt import cache as cc
+    ctx = mp.get_context('spawn')
+    barrier = ctx.Barrier(2)
+    key, rounds = 'f' * 32, 30
+    writers = [ctx.Process(target=_store_many, args=(key, barrier, rounds, str(tmp_path), s))
+               for s in (1, 2)]
+    for w in writers:
+        w.start()
+    path = tmp_path / 'colorings' / f'{key}.npz'
+    reads = 0
+    old = os.environ.get('SUSPOPT_CACHE_DIR')
+    os.environ['SUSPOPT_CACHE_DIR'] = str(tmp_path)
+    try:
+        while any(w.is_alive() for w in writers):
+            if path.exists():
+                got = cc.load(key)
+                assert got is not None and got.shape == (300, 300), 'partial coloring file'
+                reads += 1
+            time.sleep(0.001)
+        for w in writers:
+            w.join()
+            assert w.exitcode == 0  # the writers' own checks held
+        assert reads > 10 and cc.load(key) is not None
+        assert not list(cc.cache_dir().glob('*.tmp'))
+    finally:
+        if old is None:
+            del os.environ['SUSPOPT_CACHE_DIR']
+        else:
+            os.environ['SUSPOPT_CACHE_DIR'] = old
