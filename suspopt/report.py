@@ -415,7 +415,7 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
 
 def render(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a (possibly partial) study directory, or of
-    an optimize or Pareto directory."""
+    an optimize, Pareto or topology-study (``compare.json``) directory."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -424,6 +424,9 @@ def render(out_dir: str | Path) -> list[Path]:
     if not out.is_dir():
         from suspopt.errors import ConfigError
         raise ConfigError(f'{out}: not a directory')
+    if not (out / 'study.json').exists() and (out / 'compare.json').exists():
+        from suspopt.compare_report import render_compare  # a topology study
+        return render_compare(out)
     if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
         return render_pareto(out)
     if not (out / 'study.json').exists() and (out / 'result.json').exists():
