@@ -147,11 +147,13 @@ def main() -> None:
               f"{(mi / med(runs[n], 'iterations')) / (lo / lo_it):.2f}x")
     if len(names) > 1:
         a, b = runs[names[0]], runs[names[1]]
+        per_it = (med(b, 'solve') / med(b, 'iterations')) / \
+            (med(a, 'solve') / med(a, 'iterations'))
         print(f'\n{names[1]} / {names[0]} (medians, measured side by side): total '
               f"{med(b, 'total') / med(a, 'total'):.2f}x, solve "
               f"{med(b, 'solve') / med(a, 'solve'):.2f}x, IPOPT iterations "
               f"{med(b, 'iterations'):.0f} / {med(a, 'iterations'):.0f}, solve per iteration "
-              f"{(med(b, 'solve') / med(b, 'iterations')) / (med(a, 'solve') / med(a, 'iterations')):.2f}x, "
+              f"{per_it:.2f}x, "
               f"time inside the multibody solver {med(b, 'mbd_s') / med(a, 'mbd_s'):.2f}x")
 
 

@@ -7,8 +7,8 @@
 For each grid, the largest relative difference over the J_k between the collocation
 solution (IPOPT solving the collocation equations at a fixed design) and adaptive time
 marching, at the initial design, the low-fidelity optimum and three corners of the
-design box; and f at the initial design (exactly 1 by time marching with the reference
-normalization, low fidelity). ``--mixed`` adds the mixed-fidelity model with the
+design box (with ``--mechanism`` all four); and f at the initial design (exactly 1 by
+time marching with the reference normalization, low fidelity). ``--mixed`` adds the mixed-fidelity model with the
 configured mechanisms; ``--mechanism`` measures the mixed-fidelity model once per listed
 mechanism (built-in name or TOML path, on both axles) instead, and ``--optimum`` adds
 that topology's own mixed-fidelity optimum (optimized on the default grid from the
@@ -39,6 +39,8 @@ DESIGNS = {
     'stiff, light damping': {'k_S1': 5e4, 'k_S2': 5e4, 'c_S1': 1e3, 'c_S2': 1e3},
     'stiff, heavy damping': {'k_S1': 5e4, 'k_S2': 5e4, 'c_S1': 5e3, 'c_S2': 5e3},
 }
+#: with --mechanism: the fourth corner too (softest, most damped)
+EXTRA = {'soft, heavy damping': {'k_S1': 1e4, 'k_S2': 1e4, 'c_S1': 5e3, 'c_S2': 5e3}}
 #: SPEC §6: collocation and time marching within this on every J_k
 CRITERION = 1e-3
 
@@ -76,7 +78,8 @@ def main() -> None:
         models.append(('low', 'low', base))
         if args.mixed:
             models.append(('mixed', 'mixed', base))
-    designs = {label: dict(DESIGNS) for label, _, _ in models}
+    designs = {label: dict(DESIGNS, **(EXTRA if args.mechanism else {}))
+               for label, _, _ in models}
     if args.mechanism and args.optimum:
         low = optimize(base, 'low', scales=scales, verify=False)
         for label, fid, cfg in models:

@@ -333,23 +333,33 @@ def run_compare(config: StudyConfig, out_dir: str | Path | RunDirectory,
     finally:
         for p in problems.values():
             p.cleanup()
-    data['best'] = best_designs(data)
-    unverified = [k for k, c in data['cells'].items() if verified(c) is False]
-    if unverified:
-        worst = max(unverified, key=lambda k: data['cells'][k]['verification']['max_rel_diff'])
-        v = data['cells'][worst]['verification']
-        data['warnings'] = [
-            f'not verified: {len(unverified)} of {len(data["cells"])} cells; worst '
-            f"{worst}: collocation and time marching differ by {100 * v['max_rel_diff']:.2g} % "
-            f"on {v['scenarios'][0]['worst_term']} (tolerance {100 * VERIFY_TOLERANCE:g} %): "
-            'the grid is too coarse for this car and road; more --segments']
+    finish(data)
+    if data['warnings']:
         say(f"warning: {data['warnings'][-1]}")
-    data['verified'] = None if not verify else not unverified
     data['wall_time_s'] = time.perf_counter() - t_start
     data['complete'] = True
     save()
     say('writing table and figures')
     compare_report.render_compare(out)
+    return data
+
+
+def finish(data: dict[str, Any]) -> dict[str, Any]:
+    """The verdicts of a finished study, from its cells: ``best`` (:func:`best_designs`),
+    ``warnings`` (the cells whose collocation and time marching disagree) and ``verified``
+    (None when verification was skipped)."""
+    data['best'] = best_designs(data)
+    unverified = [k for k, c in data['cells'].items() if verified(c) is False]
+    data['warnings'] = []
+    if unverified:
+        worst = max(unverified, key=lambda k: data['cells'][k]['verification']['max_rel_diff'])
+        v = data['cells'][worst]['verification']
+        data['warnings'].append(
+            f'not verified: {len(unverified)} of {len(data["cells"])} cells; worst '
+            f"{worst}: collocation and time marching differ by {100 * v['max_rel_diff']:.2g} % "
+            f"on {v['scenarios'][0]['worst_term']} (tolerance {100 * data['tolerance']:g} %): "
+            'the grid is too coarse for this car and road; more --segments')
+    data['verified'] = None if not data.get('verify', True) else not unverified
     return data
 
 

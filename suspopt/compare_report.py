@@ -89,11 +89,13 @@ def compare_markdown(data: dict[str, Any]) -> str:
                   '|---|---|---|---|---|---|---|']
         for lab, c in kin['curves'].items():
             ref = c['at_reference']
-            rng = lambda k, f=1.0: f'{f * min(c[k]):.3g} … {f * max(c[k]):.3g}'  # noqa: E731
+            def rng(key: str, scale: float, digits: int) -> str:
+                lo_, hi_ = (f'{scale * x:.{digits}f}' for x in (min(c[key]), max(c[key])))
+                return ' … '.join(x if x.strip('-0.') else x.lstrip('-') for x in (lo_, hi_))
             lines.append(f"| {lab} | {c['moving_mass_kg']:.1f} | {ref['motion_ratio']:.4f} | "
                          f"{ref['wheel_rate'] / kin['spring_rate']:.4f} | "
-                         f"{rng('motion_ratio')} | {rng('camber')} | "
-                         f"{rng('track_change', 1e3)} |")
+                         f"{rng('motion_ratio', 1.0, 3)} | {rng('camber', 1.0, 2)} | "
+                         f"{rng('track_change', 1e3, 1)} |")
         lines.append('')
     lines += ['**Optima** (each in its own model)', '',
               '| model | ' + ' | '.join(f'{n} [{_unit(n)}]' for n in names)
