@@ -1,19 +1,20 @@
 """Collocation against time marching on several grids (SPEC §6; the default-grid choice).
 
     python benchmarks/grid_convergence.py [--grids 16x5 32x5 64x5 80x5 64x6 96x5] [--mixed]
-    python benchmarks/grid_convergence.py --mechanism double_wishbone,macpherson \
-        [--grids 80x5 96x5] [--optimum]
+    python benchmarks/grid_convergence.py --mechanism double_wishbone,macpherson [--grids 80x5 96x5]
+        [--optimum]
 
 For each grid, the largest relative difference over the J_k between the collocation
 solution (IPOPT solving the collocation equations at a fixed design) and adaptive time
 marching, at the initial design, the low-fidelity optimum and three corners of the
 design box (with ``--mechanism`` all four); and f at the initial design (exactly 1 by
-time marching with the reference normalization, low fidelity). ``--mixed`` adds the mixed-fidelity model with the
-configured mechanisms; ``--mechanism`` measures the mixed-fidelity model once per listed
-mechanism (built-in name or TOML path, on both axles) instead, and ``--optimum`` adds
-that topology's own mixed-fidelity optimum (optimized on the default grid from the
-low-fidelity optimum) to the designs. The last columns name the worst term and say
-whether the grid meets SPEC's 0.1 % on every J_k at every design measured.
+time marching with the reference normalization, low fidelity). ``--mixed`` adds the
+mixed-fidelity model with the configured mechanisms; ``--mechanism`` measures the
+mixed-fidelity model once per listed mechanism (built-in name or TOML path, on both
+axles) instead, and ``--optimum`` adds that topology's own mixed-fidelity optimum
+(optimized on the default grid from the low-fidelity optimum) to the designs. The last
+columns name the worst term and say whether the grid meets SPEC's 0.1 % on every J_k at
+every design measured.
 """
 from __future__ import annotations
 
