@@ -1,8 +1,8 @@
 """Collocation against time marching on several grids (SPEC §6; the default-grid choice).
 
     python benchmarks/grid_convergence.py [--grids 16x5 32x5 64x5 80x5 64x6 96x5] [--mixed]
-    python benchmarks/grid_convergence.py --mechanism double_wishbone,macpherson [--grids 80x5 96x5]
-        [--optimum]
+    python benchmarks/grid_convergence.py --mechanism double_wishbone,macpherson
+        [--grids 80x5 88x5] [--optimum]
 
 For each grid, the largest relative difference over the J_k between the collocation
 solution (IPOPT solving the collocation equations at a fixed design) and adaptive time
