@@ -133,8 +133,9 @@ def main() -> None:
         print(mixed_table(runs[n]))
         kin, dyn = r0['per_jacobian']
         print(f'\nblack-box calls per total Jacobian: {kin} kinematic + {dyn} dynamic component '
-              f'evaluations (2 axles; forward FD: 2 resp. 4 perturbations each), independent of '
-              f'the {args.segments * 5} nodes')
+              'evaluations (one component of each kind for both corners; forward FD: one '
+              'perturbation per input — z_W, v_W; z_W, v_W, z_M, v_M, F_T, k_S, c_S — the base '
+              f'point reused from compute), independent of the {args.segments * 5} nodes')
         print('optimum: ' + ', '.join(f'{k} = {v:.2f}' for k, v in r0['design'].items())
               + f", f = {r0['f']:.7f} ({'converged' if r0['success'] else 'NOT converged'})\n")
     lo = statistics.median(r['total'] for r in lows)
