@@ -108,6 +108,13 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
     def model_of(cfg, fid):
         return 'low' if fid == 'low' else cfg.vehicle.front.mechanism
 
+    def key_of(cfg, fid):
+        v = cfg.vehicle
+        if fid == 'low':
+            return 'low'
+        return 'mixed:' + (v.front.mechanism if v.front.mechanism == v.rear.mechanism
+                           else f'{v.front.mechanism}+{v.rear.mechanism}')
+
     def f_of(cfg, fid, design):
         c = centre[model_of(cfg, fid)]
         b = cfg.design.bounds()
@@ -115,7 +122,7 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
 
     def record(cfg, fid, design, mode, label):
         f = f_of(cfg, fid, design)
-        key = f"{label}|{'low' if fid == 'low' else 'mixed:' + model_of(cfg, fid)}"
+        key = f'{label}|{key_of(cfg, fid)}'
         ok = key != unverified
         return {'fidelity': fid, 'mode': mode, 'method': 'collocation', 'design': design,
                 'objective': f, 'terms': dict.fromkeys(cfg.terms(), f), 'success': True,
@@ -233,7 +240,32 @@ def test_topology_labels_and_front_rear_pairs(tmp_path):
                                              'macpherson-2']
 
 
+def test_compare_full_car_topologies_per_axle(tmp_path, capsys, monkeypatch):
+    """The full car (six design variables, anti-roll bars) with a MacPherson front and
+    double-wishbone rear against double wishbones all round (stand-in solves)."""
+    from suspopt.config_file import default_config_toml
+    path = tmp_path / 'full.toml'
+    text = default_config_toml('full_car')
+    assert 'horizon = 5.0 ' in text
+    path.write_text(text.replace('horizon = 5.0 ', 'horizon = 0.3 '))  # short: s_k cheap
+    _stand_in(monkeypatch)
+    out = tmp_path / 'cmp'
+    rc = main(['compare', '--mechanisms', 'macpherson+double_wishbone,double_wishbone',
+               '--config', str(path), '--out', str(out), '--quiet'])
+    assert rc == 0, capsys.readouterr().err
+    data = read_json(out / 'compare.json')
+    assert data['models'] == ['low', 'mixed:macpherson+double_wishbone',
+                              'mixed:double_wishbone']
+    top = data['topologies'][0]
+    assert (top['front'], top['rear']) == ('macpherson', 'double_wishbone')
+    assert set(data['kinematics']['curves']) == {'macpherson', 'double_wishbone'}
+    assert len(data['cells']) == 4 * 3
+    table = (out / 'table.md').read_text()
+    assert '| full car (low fidelity) |' in table and 'k_R1 [N·m/rad]' in table
+
+
 # ------------------------------------------------------------------ the full car
+@pytest.mark.slow
 def test_full_car_macpherson_front_double_wishbone_rear_verifies():
     """Mixed fidelity with one mechanism per axle: the default full car (BMW E90 data),
     MacPherson front, double wishbone rear, on its ISO 8608 road (short drive, automatic
