@@ -424,8 +424,9 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog=EPILOG)
     p.add_argument('--mechanisms', default='double_wishbone,sla_double_wishbone,macpherson',
                    metavar='A,B,...',
-                   help='topologies: built-in names or mechanism TOML paths, each on both '
-                        'axles, or FRONT+REAR (default: %(default)s)')
+                   help='topologies: built-in names or mechanism TOML paths (relative to '
+                        'the working directory), each on both axles, or FRONT+REAR (default: '
+                        '%(default)s)')
     common(p)
     run_opts(p, 'results/compare')
     p.set_defaults(func=cmd_compare)
