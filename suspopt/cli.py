@@ -7,6 +7,7 @@
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
     suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
+    suspopt robust --config FILE [--fidelity ...]         robust design over the scenarios
     suspopt sweep FILE --out DIR [--workers N | --scheduler ADDR]   many runs on Dask
 
 A DESIGN is the design variables' values in order (``30000,30000,3000,3000`` for the half
@@ -265,6 +266,33 @@ def cmd_pareto(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_robust(args: argparse.Namespace) -> int:
+    from suspopt.results import RunDirectory
+    from suspopt import report
+    from suspopt.robust import run_robust
+    config = _config(args)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'robust design of the {args.fidelity}-fidelity model; results in {out.path}')
+        data = run_robust(config, out, fidelity=args.fidelity, progress=progress, log=log,
+                          verify=not args.no_verify)
+        log('writing table and figure')
+        report.render(out.path)
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/robust.json, table.md, figures/robustness.png "
+          f"({data['wall_time_s']:.1f} s)")
+    failed = [k for k, r in data['optima'].items() if not r['success']]
+    if failed:
+        print(f"suspopt: error: IPOPT did not converge for {', '.join(failed)}; the others "
+              'are kept', file=sys.stderr)
+        return 1
+    if data.get('verified') is False:
+        print('suspopt: error: some optimum is NOT verified by time marching (see table.md)',
+              file=sys.stderr)
+        return NotVerified.exit_code
+    return 0
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Many optimizations or studies in parallel on Dask (see suspopt.sweep)."""
     from suspopt.sweep import run_sweep
@@ -384,6 +412,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help='comfort shares 0 ... 1 (default: %(default)s)')
     run_opts(p, 'results/pareto')
     p.set_defaults(func=cmd_pareto)
+
+    p = sub.add_parser('robust', help='robust design over the study file\'s scenarios: the '
+                                      'robust optimum against each scenario\'s own',
+                       epilog=EPILOG)
+    p.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
+    common(p)
+    run_opts(p, 'results/robust')
+    p.set_defaults(func=cmd_robust)
 
     p = sub.add_parser('sweep', help='many optimizations or studies in parallel on Dask '
                                      '(a sweep file: axes or a task list)', epilog=EPILOG)

@@ -216,6 +216,64 @@ def pareto_markdown(front: dict[str, Any]) -> str:
     return '\n'.join(lines) + '\n'
 
 
+def robust_markdown(data: dict[str, Any]) -> str:
+    """The robustness table (:mod:`suspopt.robust`), as Markdown."""
+    names, scen = data['design_names'], data['scenarios']
+    agg = 'max_s f_s' if data['aggregate'] == 'max' else 'Σ_s w_s f_s'
+    lines = [f"Robust design, {FIDELITY_LABELS[data['fidelity']]} model: {len(scen)} scenarios "
+             f"({', '.join(f'{n} (w = {w:g})' for n, w in zip(scen, data['weights']))}), "
+             f'objective {agg}, each f_s normalized by its own scales.', '',
+             '**Optima** (collocation, each in its own problem)', '',
+             '| optimum | ' + ' | '.join(f'{n} [{_design_unit(n)}]' for n in names)
+             + ' | f | IPOPT | iterations | |', '|---|' + '---|' * (len(names) + 4)]
+    for label, res in data['optima'].items():
+        d = res['design']
+        lines.append(f'| {label} | ' + ' | '.join(f'{d[n]:.0f}' for n in names)
+                     + f" | {_fmt(res['objective'])} | {res['status']} | {res['iterations']} "
+                     f'| {_verdict(res)} |')
+    lines += ['', '**Every optimum on every scenario** (f_s by time marching; the best on each '
+              'scenario in bold)', '',
+              '| optimum | ' + ' | '.join(scen) + f' | {agg} |', '|---|' + '---|' * (len(scen) + 1)]
+    cross = data.get('cross', {})
+    best = {s: min((c['scenarios'][s] for c in cross.values()), default=None) for s in scen}
+    best_agg = min((c['aggregate'] for c in cross.values()), default=None)
+    for label, c in cross.items():
+        cells = [(f"**{c['scenarios'][s]:.4f}**" if c['scenarios'][s] == best[s]
+                  else f"{c['scenarios'][s]:.4f}") for s in scen]
+        a = f"**{c['aggregate']:.4f}**" if c['aggregate'] == best_agg else f"{c['aggregate']:.4f}"
+        lines.append(f'| {label} | ' + ' | '.join(cells) + f' | {a} |')
+    if data.get('wall_time_s') is not None:
+        lines += ['', f"{len(data['optima'])} optimizations: {data['wall_time_s']:.1f} s in all."]
+    return '\n'.join(lines) + '\n'
+
+
+def render_robust(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and ``figures/robustness.png`` of a robust-design directory."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    out = Path(out_dir)
+    data = read_json(out / 'robust.json')
+    write_text(out / 'table.md', robust_markdown(data))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    cross, scen = data.get('cross', {}), data['scenarios']
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(scen) + 2), 4), constrained_layout=True)
+    width = 0.8 / max(len(cross), 1)
+    for k, (label, c) in enumerate(cross.items()):
+        x = np.arange(len(scen)) + (k - (len(cross) - 1) / 2) * width
+        ax.bar(x, [c['scenarios'][s] for s in scen], width,
+               label=f'{label} optimum', hatch='//' if label == 'robust' else None)
+    ax.set_xticks(np.arange(len(scen)), scen)
+    ax.set(ylabel='f_s by time marching (normalized per scenario)',
+           title='Every optimum on every scenario (lower is better)')
+    ax.grid(alpha=0.3, axis='y')
+    ax.legend(fontsize=8)
+    fig.savefig(figs / 'robustness.png', dpi=110)
+    plt.close(fig)
+    return [out / 'table.md', figs / 'robustness.png']
+
+
 # ---------------------------------------------------------------------------- figures
 def _panels(terms: list[str]) -> list[tuple[str, str, str]]:
     """(signal, y label, title) of every panel: chassis accelerations, then the wheels of
@@ -426,6 +484,8 @@ def render(out_dir: str | Path) -> list[Path]:
         raise ConfigError(f'{out}: not a directory')
     if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
         return render_pareto(out)
+    if not (out / 'study.json').exists() and (out / 'robust.json').exists():
+        return render_robust(out)
     if not (out / 'study.json').exists() and (out / 'result.json').exists():
         return render_run(out)
     study = read_json(out / 'study.json')
