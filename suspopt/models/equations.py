@@ -114,28 +114,28 @@ def chassis_mount_accelerations(F0: ArrayLike, G: ArrayLike, F_R: ArrayLike,
 
     one small system per node. ``F_R`` (N, corners): further vertical forces on the
     chassis (anti-roll bars)."""
-    F0, G = np.asarray(F0, dtype=float), np.asarray(G, dtype=float)
+    F0, G = np.asarray(F0), np.asarray(G)
     A = np.diag(np.asarray(inertia, dtype=float)) - np.einsum('cuk,ncuv,cvl->nkl', L, G, L)
-    b = np.einsum('cuk,ncu->nk', L, F0) + np.asarray(F_R, dtype=float) @ L[:, 0, :]
+    b = np.einsum('cuk,ncu->nk', L, F0) + np.asarray(F_R) @ L[:, 0, :]
     return np.linalg.solve(A, b[..., None])[..., 0]
 
 
 def mount_accelerations(acc_C: ArrayLike, L: np.ndarray) -> np.ndarray:
     """The mounts' accelerations (N, corners, u) from the chassis' (N, heave, pitch[, roll])."""
-    return np.einsum('cuk,nk->ncu', L, np.asarray(acc_C, dtype=float))
+    return np.einsum('cuk,nk->ncu', L, np.asarray(acc_C))
 
 
 def mount_response(R: ArrayLike, a_M: ArrayLike) -> np.ndarray:
     """A chassis-mounted module's response at its mount's accelerations: ``R_0 + Σ_u a_u
     R_u`` (R (N, corners, 1 + u, n) blocks: at zero mount acceleration, per unit of each
     mount coordinate; a_M (N, corners, u)) → (N, corners, n)."""
-    R = np.asarray(R, dtype=float)
-    return R[:, :, 0] + np.einsum('ncu,ncur->ncr', np.asarray(a_M, dtype=float), R[:, :, 1:])
+    R = np.asarray(R)
+    return R[:, :, 0] + np.einsum('ncu,ncur->ncr', np.asarray(a_M), R[:, :, 1:])
 
 
 def mount_forces(R: ArrayLike, n_mount: int) -> tuple[np.ndarray, np.ndarray]:
     """``F0`` (N, corners, u) and ``G`` (N, corners, u, u) of module responses ``R`` (N,
     corners, 1 + u, n): the generalized mount forces (entries 1 .. u: F_z, M_P) at zero
     mount acceleration and per unit mount acceleration, ``G[u, v]`` = force u per unit v."""
-    R = np.asarray(R, dtype=float)
+    R = np.asarray(R)
     return R[:, :, 0, 1:1 + n_mount], R[:, :, 1:, 1:1 + n_mount].transpose(0, 1, 3, 2)
