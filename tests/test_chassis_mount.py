@@ -277,3 +277,76 @@ def test_chassis_mounted_black_boxes_fd_and_sparsity(kind, roll):
             mask = np.zeros((nn, R.shape[0] // nn, nn), dtype=bool)
             mask[np.arange(nn), :, np.arange(nn)] = True
             assert np.all(R[~mask.reshape(R.shape)] == 0.0), (o, w)
+
+
+# ------------------------------------------------------------------ in the vehicle model
+X0 = {'k_S1': 32000.0, 'k_S2': 21000.0, 'c_S1': 2600.0, 'c_S2': 2200.0}
+
+
+@pytest.fixture(scope='module')
+def chassis_problem(cfg, scales):
+    """The half car with chassis-mounted modules on an 8-segment grid, run at the half
+    car's time-marching trajectory (a non-converged point: every node differs)."""
+    from suspopt.timemarching import simulate
+    from suspopt.transcription.problem import VehicleProblem
+    small = with_mount(cfg.replace(transcription=dataclasses.replace(cfg.transcription,
+                                                                     segments=8)), 'chassis')
+    with VehicleProblem(small, 'mixed', scales) as vp:
+        vp.set_design(X0)
+        vp.set_initial_guess(simulate(small, 'low', X0, rtol=1e-6, atol=1e-9))
+        vp.problem.run_model()
+        yield vp
+
+
+def test_force_balance_and_closed_loop_at_every_node(chassis_problem):
+    """At every node of the collocation model: the vertical force on the chassis F_M
+    equals the tyre force minus the linkage's Σ m a_z, computed from the module queried
+    at the mount acceleration the chassis equations produced (1e-9 of the tyre force); and
+    the chassis equations hold with those forces (the loop is closed: 1e-9)."""
+    vp = chassis_problem
+    p, cfg = vp.problem, vp.config
+    get = lambda name: np.asarray(p.get_val(f'traj.s0.rhs_all.{name}'))  # noqa: E731
+    mod = vp.modules['double_wishbone']
+    lay = cfg.layout()
+    zdd_C, thdd_C = get('zdd_C'), get('thdd_C')
+    F_M, F_T = get('F_M'), get('F_T')
+    k, c = get('k_S'), get('c_S')
+    nn = zdd_C.size
+    worst = 0.0
+    for i, corner in enumerate(lay.corners):
+        pose = (get('z_M')[:, i], get('v_M')[:, i], np.zeros(nn), np.zeros(nn))
+        kin = mod.kinematics(get('z_W')[:, i], get('v_W')[:, i], pose=pose)
+        acc = np.stack([zdd_C - corner.a * thdd_C, np.zeros(nn)], -1)
+        F, _ = linkage_balance(mod, kin, np.full(nn, k[i]), np.full(nn, c[i]), F_T[:, i], acc)
+        worst = max(worst, np.max(np.abs(F_M[:, i] - F[:, 1])) / np.max(np.abs(F_T)))
+    v = cfg.vehicle
+    heave = np.max(np.abs(v.chassis_mass * zdd_C - F_M.sum(1))) / np.max(np.abs(F_M))
+    pitch = np.max(np.abs(v.chassis_pitch_inertia * thdd_C + F_M @ lay.a)) \
+        / np.max(np.abs(F_M @ lay.a))
+    print(f'\n{nn} nodes: |F_M - (F_T - Σ m a_z)| <= {worst:.1e} F_T; chassis equations '
+          f'with those forces: heave {heave:.1e}, pitch {pitch:.1e}')
+    assert np.max(np.abs(F_T)) > 100.0 and np.max(np.abs(zdd_C)) > 0.1
+    assert worst < 1e-9 and heave < 1e-9 and pitch < 1e-9
+
+
+def test_check_totals_of_the_coupled_nlp(chassis_problem):
+    """OpenMDAO's check_totals on the NLP functions (objective and defects) w.r.t. the
+    design and the states, at the non-converged point: the MAUD assembly of the analytic
+    partials (the closed loop included) and the black boxes' FD partials."""
+    vp = chassis_problem
+    lay = vp.driver.layout()
+    of = ['objective.f'] + [c.name for c in lay.constraints]
+    wrt = [v.name for v in lay.design_vars]
+    data = vp.problem.check_totals(of=of, wrt=wrt, method='fd', form='central', step=1e-4,
+                                   step_calc='rel_avg', out_stream=None,
+                                   driver_scaling=False)
+    worst = {}
+    for (o, w), d in data.items():
+        J_fd, J_an = np.asarray(d['J_fd']), np.asarray(d.get('J_fwd', d.get('J_rev')))
+        scale = np.max(np.abs(J_fd))
+        if scale > 0.0:
+            kind = 'design' if 'parameters' in w else 'states'
+            worst[kind] = max(worst.get(kind, 0.0), np.max(np.abs(J_an - J_fd)) / scale)
+    print(f'\ncheck_totals: largest difference of each block\'s largest entry {worst}')
+    assert set(worst) == {'design', 'states'}
+    assert max(worst.values()) < 1e-4
