@@ -350,3 +350,82 @@ def test_check_totals_of_the_coupled_nlp(chassis_problem):
     print(f'\ncheck_totals: largest difference of each block\'s largest entry {worst}')
     assert set(worst) == {'design', 'states'}
     assert max(worst.values()) < 1e-4
+
+
+def test_frame_follows_the_chassis_on_both_sides_of_a_rolling_car():
+    """Mirroring of the planar model (x outboard): on a full car in heave, pitch and roll,
+    every frame point of a left and of a right corner's module moves vertically with the
+    chassis point at its lateral position, y = y_c + side (x - x_P), z_C - a θ + y φ
+    (small angles: to first order in φ)."""
+    from suspopt.transcription.problem import mount_poses
+    full = full_car_defaults()
+    lay = full.layout()
+    mod = SuspensionModule('double_wishbone', mount='chassis')
+    s = mod.solver
+    phi = 1e-4
+    values = {'z_C': np.array([0.01]), 'theta_C': np.array([0.002]), 'phi_C': np.array([phi]),
+              'v_C': np.zeros(1), 'omega_C': np.zeros(1), 'p_C': np.zeros(1)}
+    poses = mount_poses(lay, values)
+    mk = s.marker_names.index('spring_mount')
+    x_mount = s.marker_reference()[mk, 0]
+    assert x_mount < mod.mount_point[0]  # inboard of the wheel
+    for c, corner in enumerate(lay.corners):
+        pose = tuple(p[:, c] for p in poses)
+        kin = mod.kinematics(pose[0], np.zeros(1), pose=pose)
+        dz = s.marker_positions(kin.state.q)[0, mk, 1] - s.marker_reference()[mk, 1]
+        y = corner.y + corner.side * (x_mount - mod.mount_point[0])
+        expected = 0.01 - corner.a * 0.002 + y * phi
+        # second order: the 0.5 m high mount point turns by ψ, ½ ψ² 0.5 m ≈ 2.5e-9 m
+        assert abs(dz - expected) < 1e-8, (corner.label, dz, expected)
+        mirrored_wrong = expected - 2 * corner.side * (x_mount - mod.mount_point[0]) * phi
+        assert corner.side == 0 or abs(dz - mirrored_wrong) > 5e-6
+
+
+@pytest.fixture(scope='module')
+def full_chassis_problem(scales):
+    """The default full car (bars) with chassis-mounted modules on a 3-segment grid, run at
+    a state guess of its half-car-like time marching (non-converged)."""
+    from suspopt.timemarching import simulate
+    from suspopt.transcription.problem import VehicleProblem
+    full = full_car_defaults()
+    full = with_mount(config_from_dict({**full.to_dict(), 'maneuver': {'horizon': 1.0},
+                                        'transcription': {'segments': 3},
+                                        'objective': {'normalization': 'custom',
+                                                      'scales': dict.fromkeys(full.terms(),
+                                                                              1.0)}}),
+                      'chassis')
+    with VehicleProblem(full, 'mixed', (dict.fromkeys(full.terms(), 1.0),)) as vp:
+        vp.set_initial_guess(simulate(full, 'low', rtol=1e-6, atol=1e-9))
+        vp.problem.run_model()
+        yield vp
+
+
+def test_full_car_roll_balance_at_every_node(full_chassis_problem):
+    """Full car with anti-roll bars: at every node the chassis' heave, pitch and roll
+    equations hold with every module's force F_z and moment about P queried at the solved
+    mount accelerations (roll moment y_c (F_z + F_R) + side M_P), to 1e-9."""
+    vp = full_chassis_problem
+    p, cfg = vp.problem, vp.config
+    get = lambda name: np.asarray(p.get_val(f'traj.s0.rhs_all.{name}'))  # noqa: E731
+    lay = cfg.layout()
+    acc = np.stack([get('zdd_C'), get('thdd_C'), get('phidd_C')], -1)
+    L = eq.mount_map(lay.a, lay.y, [c.side for c in lay.corners], True)
+    a_M = eq.mount_accelerations(acc, L)
+    F_W, F_R, F_M = get('F_W'), get('F_R'), get('F_M')
+    nn = acc.shape[0]
+    Q = np.zeros((nn, 3))
+    for i, corner in enumerate(lay.corners):
+        mod = vp.modules[cfg.vehicle.axles[corner.axle].mechanism]
+        pose = (get('z_M')[:, i], get('v_M')[:, i], get('psi_M')[:, i], get('w_M')[:, i])
+        kin = mod.kinematics(get('z_W')[:, i], get('v_W')[:, i], pose=pose)
+        F, M = linkage_balance(mod, kin, np.full(nn, get('k_S')[i]),
+                               np.full(nn, get('c_S')[i]), F_W[:, i], a_M[:, i])
+        np.testing.assert_allclose(F_M[:, i], F[:, 1], rtol=0,
+                                   atol=1e-9 * np.max(np.abs(F_W)))
+        Fz = F[:, 1] + F_R[:, i]
+        Q += np.stack([Fz, -corner.a * Fz, corner.y * Fz + corner.side * M], -1)
+    v = cfg.vehicle
+    inertia = np.array([v.chassis_mass, v.chassis_pitch_inertia, v.chassis_roll_inertia])
+    err = np.max(np.abs(inertia * acc - Q), axis=0) / np.max(np.abs(Q), axis=0)
+    print(f'\nfull car, {nn} nodes: heave, pitch, roll residuals {err}')
+    assert np.all(np.max(np.abs(acc), axis=0) > 0.0) and np.all(err < 1e-9)
