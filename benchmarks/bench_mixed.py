@@ -29,23 +29,23 @@ from suspopt.study import optimize, resolve_scales  # noqa: E402
 
 @contextmanager
 def _count_compute(*comp_classes):
-    """Count compute() calls of component classes (black-box queries)."""
+    """Count black-box queries (evaluate() calls) of component classes."""
     counts = {cls: 0 for cls in comp_classes}
-    originals = {cls: cls.compute for cls in comp_classes}
+    originals = {cls: cls.evaluate for cls in comp_classes}
 
     def counting(cls):
-        def compute(self, inputs, outputs):
+        def evaluate(self, values):
             counts[cls] += 1
-            return originals[cls](self, inputs, outputs)
-        return compute
+            return originals[cls](self, values)
+        return evaluate
 
     for cls in comp_classes:
-        cls.compute = counting(cls)
+        cls.evaluate = counting(cls)
     try:
         yield counts
     finally:
         for cls, orig in originals.items():
-            cls.compute = orig
+            cls.evaluate = orig
 
 
 def run_once(cfg, scales, start, fidelity='mixed') -> dict:
@@ -53,12 +53,9 @@ def run_once(cfg, scales, start, fidelity='mixed') -> dict:
     vp = out.pop('problem')
     if fidelity == 'mixed':
         # black-box calls per Jacobian: one colored total-derivative evaluation
-        drv = vp.driver
-        drv._tjac = None
-        drv._totals()
         with _count_compute(SuspensionKinematicsComp, SuspensionDynamicsComp,
                             ChassisMountDynamicsComp) as counts:
-            drv._totals()
+            vp.problem.model.run_linearize()  # the partials of one total Jacobian
         out['per_jacobian'] = (counts[SuspensionKinematicsComp],
                                counts[SuspensionDynamicsComp] + counts[ChassisMountDynamicsComp])
     vp.cleanup()
