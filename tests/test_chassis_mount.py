@@ -479,7 +479,7 @@ def test_collocation_matches_time_marching_on_the_default_grid(cfg, scales):
 
 @pytest.mark.slow
 def test_coupling_command_table_and_report(tmp_path, capsys):
-    """`suspopt coupling` on a 1.2 s horizon (the first bump under both wheels): 4
+    """`suspopt coupling` on a 1 s horizon (the first bump under both wheels): 4
     designs × 3 models, every cell by collocation and verified by time marching; each
     optimum is the best design in its own model; the paper's coupling and the
     consistent one give different optima; `suspopt report` re-renders the table."""
@@ -487,7 +487,7 @@ def test_coupling_command_table_and_report(tmp_path, capsys):
 
     from suspopt.cli import main
     study = tmp_path / 'short.toml'
-    study.write_text('[maneuver]\nhorizon = 1.2\n[transcription]\nsegments = 20\n')
+    study.write_text('[maneuver]\nhorizon = 1.0\n[transcription]\nsegments = 16\n')
     out = tmp_path / 'coupling'
     assert main(['coupling', '--config', str(study), '--out', str(out), '--quiet']) == 0
     res = json.loads((out / 'coupling.json').read_text())
