@@ -75,15 +75,15 @@ def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float]) -> dict[
     vp.set_design(start)
     vp.set_initial_guess(initial_guess(cfg, fidelity, start))
     t2 = time.perf_counter()
-    mbd0 = sum(m.time_s for m in vp.modules)
-    reused0 = sum(m.reused for m in vp.modules)
+    mbd0 = sum(m.time_s for m in vp.modules.values())
+    reused0 = sum(m.reused for m in vp.modules.values())
     res = vp.solve()
     t3 = time.perf_counter()
     out = {'setup': t1 - t0, 'guess': t2 - t1, 'coloring': res.times['coloring_s'],
            'solve': t3 - t2 - res.times['coloring_s'], 'iterations': res.iterations,
            'fevals': res.function_evaluations, 'gevals': res.gradient_evaluations,
-           'calls': res.multibody_calls, 'mbd_s': sum(m.time_s for m in vp.modules) - mbd0,
-           'reused': sum(m.reused for m in vp.modules) - reused0,
+           'calls': res.multibody_calls, 'mbd_s': sum(m.time_s for m in vp.modules.values()) - mbd0,
+           'reused': sum(m.reused for m in vp.modules.values()) - reused0,
            'design': res.design, 'f': res.objective, 'success': res.success, 'problem': vp}
     out['total'] = out['setup'] + out['guess'] + out['solve']
     return out

@@ -1,11 +1,13 @@
 """Benchmark: mixed-fidelity optimization from the low-fidelity optimum (issue 5).
 
-    python benchmarks/bench_mixed.py [--repeat 3] [--segments 80]
+    python benchmarks/bench_mixed.py [--repeat 3] [--segments 80] [--mount ground|chassis|both]
 
 Prints the one-time coloring cost, then over repeats (cached coloring): setup, solve,
 total, IPOPT iterations, black-box calls per Jacobian and in total, and the share of the
 solve spent inside the multibody solver; plus the low-fidelity solve on the same grid for
-the mixed/low ratio.
+the mixed/low ratio. ``--mount chassis`` benchmarks the chassis-mounted modules (issue
+16); ``both`` runs the two mounts interleaved, repeat by repeat, from the same
+low-fidelity optimum and prints the chassis/ground ratio of the medians.
 """
 from __future__ import annotations
 
@@ -20,29 +22,30 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, table, timed_optimize  # noqa: E402
 
 from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.multibody.components import SuspensionDynamicsComp, SuspensionKinematicsComp  # noqa: E402
+from suspopt.multibody.components import (ChassisMountDynamicsComp,  # noqa: E402
+                                          SuspensionDynamicsComp, SuspensionKinematicsComp)
 from suspopt.study import optimize, resolve_scales  # noqa: E402
 
 
 @contextmanager
 def _count_compute(*comp_classes):
-    """Count compute() calls of component classes (black-box queries)."""
+    """Count black-box queries (evaluate() calls) of component classes."""
     counts = {cls: 0 for cls in comp_classes}
-    originals = {cls: cls.compute for cls in comp_classes}
+    originals = {cls: cls.evaluate for cls in comp_classes}
 
     def counting(cls):
-        def compute(self, inputs, outputs):
+        def evaluate(self, values):
             counts[cls] += 1
-            return originals[cls](self, inputs, outputs)
-        return compute
+            return originals[cls](self, values)
+        return evaluate
 
     for cls in comp_classes:
-        cls.compute = counting(cls)
+        cls.evaluate = counting(cls)
     try:
         yield counts
     finally:
         for cls, orig in originals.items():
-            cls.compute = orig
+            cls.evaluate = orig
 
 
 def run_once(cfg, scales, start, fidelity='mixed') -> dict:
@@ -50,36 +53,18 @@ def run_once(cfg, scales, start, fidelity='mixed') -> dict:
     vp = out.pop('problem')
     if fidelity == 'mixed':
         # black-box calls per Jacobian: one colored total-derivative evaluation
-        drv = vp.driver
-        drv._tjac = None
-        drv._totals()
-        with _count_compute(SuspensionKinematicsComp, SuspensionDynamicsComp) as counts:
-            drv._totals()
-        out['per_jacobian'] = (counts[SuspensionKinematicsComp], counts[SuspensionDynamicsComp])
+        with _count_compute(SuspensionKinematicsComp, SuspensionDynamicsComp,
+                            ChassisMountDynamicsComp) as counts:
+            vp.problem.model.run_linearize()  # the partials of one total Jacobian
+        out['per_jacobian'] = (counts[SuspensionKinematicsComp],
+                               counts[SuspensionDynamicsComp] + counts[ChassisMountDynamicsComp])
     vp.cleanup()
     return out
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument('--repeat', type=int, default=3)
-    ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
-    args = ap.parse_args()
-    cfg = StudyConfig()
-    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
-                                                        segments=args.segments))
-    scales = resolve_scales(cfg)
-    print(f'# mixed-fidelity optimize from the low-fidelity optimum, {args.segments} x 5 grid '
-          f'— {machine()}, suspopt {git_revision()}\n')
-    with fresh_cache():
-        low = optimize(cfg, 'low', scales=scales)
-        start = low['design']
-        cold = run_once(cfg, scales, start)
-        runs = [run_once(cfg, scales, start) for _ in range(args.repeat)]
-        lows = [run_once(cfg, scales, cfg.design.initial(), 'low')
-                for _ in range(args.repeat)]
-    print(f"one-time total coloring (empty cache): {cold['coloring']:.2f} s\n")
-    print(f'mixed fidelity, cached coloring, {args.repeat} runs:\n')
+def _report(label: str, runs: list[dict], cold: dict, segments: int) -> None:
+    print(f"{label}: one-time total coloring (empty cache): {cold['coloring']:.2f} s\n")
+    print(f'{label}, cached coloring, {len(runs)} runs:\n')
     print(table([
         ('setup [s]', [r['setup'] for r in runs]),
         ('guess (half-car time marching) [s]', [r['guess'] for r in runs]),
@@ -95,17 +80,59 @@ def main() -> None:
         ('module queries answered from its memory (whole solve)', [r['reused'] for r in runs]),
         ('time inside the multibody solver [s]', [r['mbd_s'] for r in runs]),
         ('share of the solve inside the multibody solver', [r['mbd_s'] / r['solve'] for r in runs]),
+        ('f at the optimum', [r['f'] for r in runs]),
     ]))
     kin, dyn = runs[-1]['per_jacobian']
     print(f'\nblack-box calls per total Jacobian: {kin} kinematic + {dyn} dynamic component '
-          f'evaluations (2 axles; forward FD: 2 resp. 4 perturbations each), independent of '
-          f'the {args.segments * 5} nodes')
+          f'evaluations (one per input variable with forward FD), independent of the '
+          f'{segments * 5} nodes\n')
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument('--repeat', type=int, default=3)
+    ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
+    ap.add_argument('--mount', choices=('ground', 'chassis', 'both'), default='ground')
+    args = ap.parse_args()
+    cfg = StudyConfig()
+    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
+                                                        segments=args.segments))
+    mounts = ('ground', 'chassis') if args.mount == 'both' else (args.mount,)
+    cfgs = {m: cfg.replace(multibody=dataclasses.replace(cfg.multibody, mount=m))
+            for m in mounts}
+    scales = resolve_scales(cfg)
+    print(f'# mixed-fidelity optimize from the low-fidelity optimum, {args.segments} x 5 grid, '
+          f'mount {args.mount} — {machine()}, suspopt {git_revision()}\n')
+    with fresh_cache():
+        low = optimize(cfg, 'low', scales=scales)
+        start = low['design']
+        cold = {m: run_once(cfgs[m], scales, start) for m in mounts}
+        runs = {m: [] for m in mounts}
+        for _ in range(args.repeat):  # interleaved: the machine's load hits both alike
+            for m in mounts:
+                runs[m].append(run_once(cfgs[m], scales, start))
+        lows = [run_once(cfg, scales, cfg.design.initial(), 'low')
+                for _ in range(args.repeat)]
+    for m in mounts:
+        _report(f'mount {m}', runs[m], cold[m], args.segments)
     lo = statistics.median(r['total'] for r in lows)
-    mi = statistics.median(r['total'] for r in runs)
-    print(f'\nlow fidelity on the same grid (from the initial design): total {lo:.2f} s, '
+    print(f'low fidelity on the same grid (from the initial design): total {lo:.2f} s, '
           f"{statistics.median(r['iterations'] for r in lows):.0f} iterations")
-    print(f'mixed / low total (medians): {mi / lo:.2f}x; per iteration: '
-          f"{(mi / statistics.median(r['iterations'] for r in runs)) / (lo / statistics.median(r['iterations'] for r in lows)):.2f}x")
+    for m in mounts:
+        mi = statistics.median(r['total'] for r in runs[m])
+        it = statistics.median(r['iterations'] for r in runs[m])
+        print(f'mount {m}: mixed / low total (medians): {mi / lo:.2f}x; per iteration: '
+              f"{(mi / it) / (lo / statistics.median(r['iterations'] for r in lows)):.2f}x")
+    if len(mounts) == 2:
+        med = {m: {k: statistics.median(r[k] for r in runs[m]) for k in ('solve', 'total',
+                                                                          'iterations')}
+               for m in mounts}
+        ratio = {k: med['chassis'][k] / med['ground'][k] for k in ('solve', 'total')}
+        per_it = ratio['solve'] * med['ground']['iterations'] / med['chassis']['iterations']
+        print(f"\nchassis / ground mount (medians): solve {ratio['solve']:.2f}x, total "
+              f"{ratio['total']:.2f}x, solve per IPOPT iteration {per_it:.2f}x "
+              f"(iterations {med['chassis']['iterations']:.0f} vs "
+              f"{med['ground']['iterations']:.0f})")
 
 
 if __name__ == '__main__':

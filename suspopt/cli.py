@@ -93,6 +93,8 @@ def _config(args: argparse.Namespace) -> StudyConfig:
         data['transcription']['order'] = args.order
     if getattr(args, 'max_iter', None) is not None:
         data['optimizer']['max_iter'] = args.max_iter
+    if getattr(args, 'mount', None):
+        data['multibody']['mount'] = args.mount
     return config_from_dict(data)
 
 
@@ -237,6 +239,30 @@ def cmd_study(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_coupling(args: argparse.Namespace) -> int:
+    from suspopt.coupling import run_coupling
+    from suspopt.results import RunDirectory
+    from suspopt.study import StepFailed
+    config = _config(args)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log('the coupling assumption: two-step studies with the frame on the ground and on '
+            f'the chassis, 4 designs x 3 models; results in {out.path}')
+        try:
+            res = run_coupling(config, out, progress=progress, log=log,
+                               verify=not args.no_verify)
+        except StepFailed as err:
+            print(f'suspopt: error: {err}; partial results in {out.path}', file=sys.stderr)
+            return 1
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/coupling.json, table.md, figures/coupling.png "
+          f"({res['wall_time_s']:.1f} s)")
+    if res.get('verified') is False:
+        print(f"suspopt: error: {res['warnings'][-1]}", file=sys.stderr)
+        return NotVerified.exit_code
+    return 0
+
+
 def cmd_pareto(args: argparse.Namespace) -> int:
     from suspopt.pareto import run_pareto
     from suspopt.results import RunDirectory
@@ -366,8 +392,13 @@ def build_parser() -> argparse.ArgumentParser:
                     'multibody suspension linkages; Dymos Radau collocation; IPOPT).')
     sub = parser.add_subparsers(dest='command', required=True)
 
-    def common(p: argparse.ArgumentParser, grid: bool = True, verify: bool = True) -> None:
+    def common(p: argparse.ArgumentParser, grid: bool = True, verify: bool = True,
+               mount: bool = True) -> None:
         p.add_argument('--config', metavar='FILE', help='study file (TOML); see `suspopt init`')
+        if mount:
+            p.add_argument('--mount', choices=('ground', 'chassis'),
+                           help="multibody modules' frame on the ground (the paper) or on the "
+                                'chassis; default: from the config (multibody.mount)')
         p.add_argument('--normalization', choices=('reference', 'paper'),
                        help='objective normalization (SPEC §5); default: from the config')
         if grid:
@@ -389,6 +420,14 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     run_opts(p, 'results/study')
     p.set_defaults(func=cmd_study)
+
+    p = sub.add_parser('coupling', help='how much the coupling of the multibody modules '
+                                        '(frame on the ground, as the paper, or on the '
+                                        'chassis) moves the optimum: 4 designs x 3 models',
+                       epilog=EPILOG)
+    common(p, mount=False)
+    run_opts(p, 'results/coupling')
+    p.set_defaults(func=cmd_coupling)
 
     p = sub.add_parser('optimize', help='optimize one model', epilog=EPILOG)
     p.add_argument('--fidelity', choices=('low', 'mixed'), required=True)

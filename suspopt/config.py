@@ -41,6 +41,8 @@ from suspopt.road import PROFILES, TWO_TRACKS, RoadProfile, make_road, profile_f
 MODELS = ('half_car', 'full_car')
 NORMALIZATIONS = ('reference', 'paper', 'custom')
 AGGREGATES = ('sum', 'max')
+#: how a multibody module's frame is coupled to the chassis (``multibody.mount``)
+MOUNTS = ('ground', 'chassis')
 #: The paper's printed normalization factors (§4.2), for the half car's four terms.
 PAPER_SCALES = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
 #: Largest NLP suspopt builds: nodes × states (a guard against a typo, e.g. 1e6 s).
@@ -214,11 +216,16 @@ class OptimizerConfig:
 
 @dataclass(frozen=True)
 class MultibodyConfig:
-    """Finite differencing of the black-box multibody module."""
+    """Finite differencing of the black-box multibody module, and how its frame is
+    coupled to the chassis (``mount``, see :mod:`suspopt.multibody.suspension`)."""
 
     fd_form: str = 'forward'
     fd_step: float = field(default=1e-6, metadata=_check(
         'positive', doc='absolute step in the SI units of every input (m, m/s, N)'))
+    mount: str = field(default='ground', metadata={
+        'doc': "ground: the frame is fixed and the chassis feels the spring only (the "
+               "paper's coupling); chassis: the frame moves with the chassis and the "
+               "chassis feels every chassis-side reaction"})
 
 
 @dataclass(frozen=True)
@@ -679,6 +686,9 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
     if cfg.multibody.fd_form not in ('forward', 'central'):
         errs.add('multibody.fd_form', f"must be 'forward' or 'central', "
                  f'got {cfg.multibody.fd_form!r}')
+    if cfg.multibody.mount not in MOUNTS:
+        errs.add('multibody.mount', f'must be one of {", ".join(MOUNTS)}, got '
+                 f'{cfg.multibody.mount!r}{_did_you_mean(cfg.multibody.mount, MOUNTS)}')
     n_tracks = 2 if v.model == 'full_car' else 1
     errs.extend(_road_checks(cfg.road, 'road', cfg.maneuver.speed * cfg.maneuver.horizon,
                              n_tracks))

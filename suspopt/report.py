@@ -486,6 +486,8 @@ def render(out_dir: str | Path) -> list[Path]:
         return render_pareto(out)
     if not (out / 'study.json').exists() and (out / 'robust.json').exists():
         return render_robust(out)
+    if not (out / 'study.json').exists() and (out / 'coupling.json').exists():
+        return render_coupling(out)
     if not (out / 'study.json').exists() and (out / 'result.json').exists():
         return render_run(out)
     study = read_json(out / 'study.json')
@@ -555,3 +557,116 @@ def render(out_dir: str | Path) -> list[Path]:
     if steps:
         written.append(_convergence_figure(figs / 'convergence.png', steps))
     return written
+
+
+# ---------------------------------------------------------------------------- coupling
+def coupling_markdown(res: dict[str, Any]) -> str:
+    """The tables of a ``suspopt coupling`` directory (:mod:`suspopt.coupling`)."""
+    from suspopt.coupling import DESIGN_LABELS, DESIGNS, MODEL_LABELS
+    names, ev, designs = res['design_names'], res['evaluations'], res.get('designs', {})
+    cfg = res['config']
+    out = [_scales_line(res['terms'], res['scales'], res['normalization'],
+                        cfg['objective']['weights']), '',
+           '**The four designs**', '',
+           '| design | ' + ' | '.join(f'{n} [{_design_unit(n)}]' for n in names) + ' |',
+           '|---|' + '---|' * len(names)]
+    for d in DESIGNS:
+        if d in designs:
+            out.append(f'| {DESIGN_LABELS[d]} | '
+                       + ' | '.join(f'{designs[d][n]:.0f}' for n in names) + ' |')
+    out += ['', '**f of every design in every model** (collocation; time marching in '
+            'brackets; bold: the optimum of that model)', '',
+            '| design | ' + ' | '.join(MODEL_LABELS.values()) + ' |',
+            '|---|' + '---|' * len(MODEL_LABELS)]
+
+    def cell(m: str, d: str) -> str:
+        e = ev.get(m, {}).get(d)
+        if not e:
+            return '—'
+        v = e.get('verification') or {}
+        tm = f" ({v['objective']:.4f})" if v.get('objective') is not None else ''
+        flag = '' if e.get('verified') is not False else ' **NOT verified**'
+        f = f"{e['objective']:.4f}" if e.get('objective') is not None else '—'
+        return (f'**{f}**' if DESIGNS[d] == m else f) + tm + flag
+
+    for d in DESIGNS:
+        out.append(f'| {DESIGN_LABELS[d]} | ' + ' | '.join(cell(m, d) for m in MODEL_LABELS)
+                   + ' |')
+    out += ['', '**Collocation vs time marching** (largest relative difference over the '
+            'J_k)', '', '| design | ' + ' | '.join(MODEL_LABELS) + ' |',
+            '|---|' + '---|' * len(MODEL_LABELS)]
+    for d in DESIGNS:
+        row = []
+        for m in MODEL_LABELS:
+            v = (ev.get(m, {}).get(d) or {}).get('verification') or {}
+            row.append(f"{v['max_rel_diff']:.2g}" if 'max_rel_diff' in v else '—')
+        out.append(f'| {DESIGN_LABELS[d]} | ' + ' | '.join(row) + ' |')
+    out += ['', '**Objective terms J_k** (collocation)', '',
+            '| design | model | ' + ' | '.join(res['terms']) + ' |',
+            '|---|---|' + '---|' * len(res['terms'])]
+    for d in DESIGNS:
+        for m in MODEL_LABELS:
+            e = ev.get(m, {}).get(d)
+            if e and e.get('terms'):
+                out.append(f'| {DESIGN_LABELS[d]} | {m} | '
+                           + ' | '.join(f"{e['terms'][t]:.5g}" for t in res['terms']) + ' |')
+    s = res.get('summary')
+    if s:
+        change = ', '.join(f'{n} {100 * v:+.1f} %' for n, v in s['design_change'].items())
+        out += ['', f'**What the coupling assumption moves.** From the paper-coupling optimum '
+                f'to the consistent one: {change}. The paper-coupling optimum has f = '
+                f"{s['f_chassis_at_ground_optimum']:.4f} in the chassis-mounted model, "
+                f"{100 * s['loss_of_paper_optimum_in_chassis_model']:+.1f} % against that "
+                f"model's own optimum ({s['f_chassis_at_chassis_optimum']:.4f}); the "
+                "consistent optimum has f = "
+                f"{s['f_ground_at_chassis_optimum']:.4f} in the ground-mounted model "
+                f"(its optimum: {s['f_ground_at_ground_optimum']:.4f})."]
+    if res.get('wall_time_s') is not None:
+        out += ['', f"Whole run: {res['wall_time_s']:.1f} s."]
+    for w in res.get('warnings', []):
+        out += ['', f'**Warning:** {w}']
+    return '\n'.join(out) + '\n'
+
+
+def render_coupling(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and ``figures/coupling.png`` of a coupling directory."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from suspopt.coupling import DESIGN_LABELS, DESIGNS, MODEL_LABELS
+    out = Path(out_dir)
+    res = read_json(out / 'coupling.json')
+    write_text(out / 'table.md', coupling_markdown(res))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    ev, designs, names = res['evaluations'], res.get('designs', {}), res['design_names']
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.4), constrained_layout=True)
+    width = 0.8 / len(MODEL_LABELS)
+    for k, (m, label) in enumerate(MODEL_LABELS.items()):
+        vals = [(ev.get(m, {}).get(d) or {}).get('objective') for d in DESIGNS]
+        xs = [i + (k - 1) * width for i in range(len(DESIGNS))]
+        a1.bar([x for x, v in zip(xs, vals) if v is not None],
+               [v for v in vals if v is not None], width, label=label)
+    a1.set_xticks(range(len(DESIGNS)))
+    a1.set_xticklabels([DESIGN_LABELS[d].split(' (')[0].replace(' optimum', '\noptimum')
+                        for d in DESIGNS], fontsize=8)
+    a1.set_ylabel('f (collocation, verified by time marching)')
+    a1.set_title('Every design in every model')
+    a1.legend(fontsize=8)
+    bounds = res['config']['design']
+    for d in DESIGNS:
+        if d in designs:
+            rel = [(designs[d][n] - bounds[n]['lower']) / (bounds[n]['upper'] - bounds[n]['lower'])
+                   for n in names]
+            a2.plot(range(len(names)), rel, 'o-', label=DESIGN_LABELS[d])
+    a2.set_xticks(range(len(names)))
+    a2.set_xticklabels(names)
+    a2.set_ylim(-0.05, 1.05)
+    a2.set_ylabel('design within its bounds (0 lower, 1 upper)')
+    a2.set_title('The designs')
+    a2.legend(fontsize=7)
+    path = figs / 'coupling.png'
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [out / 'table.md', path]

@@ -26,7 +26,8 @@ from suspopt.errors import ConfigError, RunError
 from suspopt.trajectory import Trajectory
 
 #: files and folders a run may write into its directory (cleared by ``--overwrite``)
-RUN_OUTPUTS = ('result.json', 'study.json', 'pareto.json', 'compare.json', 'table.md',
+RUN_OUTPUTS = ('result.json', 'study.json', 'pareto.json', 'compare.json', 'coupling.json',
+               'table.md',
                'cases.sql', 'low.sql', 'mixed.sql', 'time_marching.npz', 'figures', 'inputs',
                'sweep.json', 'summary.csv', 'tasks')
 LOCK = '.suspopt.lock'

@@ -25,12 +25,17 @@ def _cases(cfg):
     full = config_from_dict({**full.to_dict(), 'transcription': {'segments': 4},
                              'objective': {'normalization': 'custom', 'scales': dict.fromkeys(
                                  full.terms(), 1.0)}})
+    chassis = dataclasses.replace(small.multibody, mount='chassis')
+    full_chassis = full.replace(multibody=dataclasses.replace(full.multibody, mount='chassis'))
     return {'half car, low': (small, 'low'), 'half car, mixed': (small, 'mixed'),
-            'full car with bars, low': (full, 'low')}
+            'full car with bars, low': (full, 'low'),
+            'half car, mixed, chassis mount': (small.replace(multibody=chassis), 'mixed'),
+            'full car with bars, mixed, chassis mount': (full_chassis, 'mixed')}
 
 
 @pytest.mark.parametrize('case', ['half car, low', 'half car, mixed',
-                                  'full car with bars, low'])
+                                  'full car with bars, low', 'half car, mixed, chassis mount',
+                                  'full car with bars, mixed, chassis mount'])
 def test_structural_sparsity_equals_openmdaos_dense_sparsity(cfg, case):
     config, fidelity = _cases(cfg)[case]
     with _problem(config, fidelity) as vp:

@@ -72,7 +72,20 @@ def multibody_modules(config: StudyConfig) -> dict[str, Any]:
     """One multibody module per distinct mechanism of the car (shared by its corners)."""
     from suspopt.multibody.suspension import SuspensionModule
     names = dict.fromkeys(ax.mechanism for ax in config.vehicle.axles)
-    return {n: SuspensionModule(n) for n in names}
+    return {n: SuspensionModule(n, mount=config.multibody.mount) for n in names}
+
+
+def mount_poses(layout, values: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
+    """The chassis mounts' poses ``(z_M, v_M, ψ, ψ̇)`` (each (N, corners)) along chassis
+    states ``values`` (z_C, v_C, theta_C, omega_C[, phi_C, p_C], each (N,))."""
+    from suspopt.models import equations as eq
+    roll = layout.has_roll
+    phi, p = (values['phi_C'], values['p_C']) if roll else (0.0, 0.0)
+    side = np.array([c.side for c in layout.corners], dtype=float)
+    z_M = eq.mount_motion(values['z_C'], values['theta_C'], phi, layout.a, layout.y)
+    v_M = eq.mount_motion(values['v_C'], values['omega_C'], p, layout.a, layout.y)
+    return (z_M, v_M, eq.mount_rotation(np.broadcast_to(phi, z_M.shape[:1]), side),
+            eq.mount_rotation(np.broadcast_to(p, z_M.shape[:1]), side))
 
 
 class VehicleProblem:
@@ -273,10 +286,13 @@ class VehicleProblem:
         """Largest position-constraint violation of the modules along a solution [m]."""
         worst = 0.0
         axles = self.config.vehicle.axles
-        for c, corner in enumerate(self.config.layout().corners):
+        lay = self.config.layout()
+        poses = mount_poses(lay, values) if self.config.multibody.mount == 'chassis' else None
+        for c, corner in enumerate(lay.corners):
             mod = self.modules[axles[corner.axle].mechanism]
-            kin = mod.kinematics(values['z_W'][:, c], values['v_W'][:, c])
-            worst = max(worst, mod.constraint_residual(kin.state))
+            kin = mod.kinematics(values['z_W'][:, c], values['v_W'][:, c],
+                                 pose=None if poses is None else tuple(p[:, c] for p in poses))
+            worst = max(worst, mod.constraint_residual(kin.state, kin.pose))
         return worst
 
     def stats(self) -> dict[str, Any]:
