@@ -340,13 +340,6 @@ class StudyConfig:
     def replace(self, **changes: Any) -> 'StudyConfig':
         return dataclasses.replace(self, **changes)
 
-    def with_design(self, **initial: float) -> 'StudyConfig':
-        """A copy whose design variables start from the given values."""
-        vs = dict(self.design.variables)
-        for name, val in initial.items():
-            vs[name] = dataclasses.replace(vs[name], initial=float(val))
-        return dataclasses.replace(self, design=dataclasses.replace(self.design, variables=vs))
-
     def with_weights(self, weights: dict[str, float]) -> 'StudyConfig':
         return dataclasses.replace(self, objective=dataclasses.replace(
             self.objective, weights={t: float(weights.get(t, 0.0)) for t in self.terms()}))
@@ -794,6 +787,8 @@ def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int)
     if not isinstance(road, dict):
         return [f'{where}: must be a table, got {road!r}']
     kind = road.get('profile', 'two_bumps')
+    if not isinstance(kind, str):
+        return [f'{where}.profile: must be a string (a profile name), got {kind!r}']
     if kind == TWO_TRACKS:
         if n_tracks != 2:
             return [f'{where}.profile: {TWO_TRACKS} needs a car with two wheel tracks '

@@ -107,7 +107,6 @@ class ColoredTotals:
                 pos = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])
                 self._colors.append((self._dv_res[cols], pos,
                                      self._con_out[coloring.rows[pos]]))
-        self.n_solves = 0
 
     def compute(self) -> tuple[np.ndarray, np.ndarray]:
         """(objective gradient (n,), Jacobian values at the coloring's nonzeros)."""
@@ -121,10 +120,8 @@ class ColoredTotals:
             d_res.asarray()[seeds] = -1.0
             model.run_solve_linear('fwd')
             jac[pos] = d_out.asarray()[rows]
-            self.n_solves += 1
         d_res.set_val(0.0)
         d_out.set_val(0.0)
         d_out.asarray()[self._obj_out] = -1.0
         model.run_solve_linear('rev')
-        self.n_solves += 1
         return d_res.asarray()[self._dv_res].copy(), jac

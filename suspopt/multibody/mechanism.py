@@ -220,7 +220,7 @@ def _elements(rd: Reader, data: dict, key: str, types: dict[str, type], kind: st
         rd.element = f'({kind} {name!r})'
         try:
             typ = table.get('type', default_type)
-            if typ not in types:
+            if not isinstance(typ, (str, type(None))) or typ not in types:
                 have = sorted(types)
                 rd.err(f'{w}.type', ('missing value' if typ is None else
                                      f'unknown {kind} type {typ!r}{close(str(typ), have)}')
@@ -254,7 +254,8 @@ def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list,
         elif key in sus:
             _check_tyre_direction(rd, by_name[sus[key]], data)
     springs = [f.name for f in forces if is_spring(f)]
-    if 'spring' in sus and not (sus['spring'] in by_name and is_spring(by_name[sus['spring']])):
+    if 'spring' in sus and not (isinstance(sus['spring'], str) and sus['spring'] in by_name
+                                and is_spring(by_name[sus['spring']])):
         rd.err('suspension.spring', f'{sus["spring"]!r} is not a spring force element '
                + (f'(springs: {", ".join(springs)})' if springs else
                   '(the mechanism has none: add a spring_damper or linear_spring_damper to '

@@ -147,14 +147,12 @@ class VehicleProblem:
                 p.model.add_design_var('bound.t', lower=0.0, ref=1.0)
                 p.model.add_constraint('worst.gap', upper=0.0, ref=1.0)
                 p.model.add_objective('bound.t')
-                self._objective = 'bound.t'
             else:
                 p.model.add_subsystem('objective', ScenarioObjectiveComp(
                     weights=tuple(sc.weight for sc in self.scenarios)))
                 for i in range(n_sc):
                     p.model.connect(f'objective_{i}.f', f'objective.f{i}')
                 p.model.add_objective('objective.f')
-                self._objective = 'objective.f'
 
             self.cache_key = cache.coloring_key(config, fidelity)
             self.use_cache = use_cache
