@@ -86,9 +86,9 @@ def initial_guess(config: StudyConfig, fidelity: str,
     (``transcription.initial_guess``).
 
     ``simulate`` is the low-fidelity model's time marching at ``design`` for both
-    fidelities: the states are the same quantities, and from the low-fidelity optimum the
-    mixed-fidelity solve takes as many IPOPT iterations from this start as from the mixed
-    model's own time marching, which costs ten times more. ``auto`` (default) starts the
+    fidelities: the states are the same quantities, and it costs far less than the mixed
+    model's own time marching, for a start about as good.
+    ``auto`` (default) starts the
     low-fidelity model from zero instead: it is linear in its states, so IPOPT's first step
     solves its collocation equations whatever the start, and simulates for the nonlinear
     mixed model.
