@@ -47,7 +47,7 @@ PAPER_SCALES = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
 #: typo such as segments = 100000: the build's time and memory grow faster than its size)
 MAX_NLP_VARIABLES = 150_000
 #: Design variables' largest plausible values by kind (a guard against a unit typo).
-DESIGN_LIMITS = {'k_S': 1e7, 'c_S': 1e5, 'k_R': 1e7}
+DESIGN_LIMITS = {'k_S': 1e7, 'c_S': 1e6, 'k_R': 1e7}
 
 
 def _check(kind: str, **kw: Any) -> dict[str, Any]:
