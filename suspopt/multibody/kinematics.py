@@ -144,22 +144,23 @@ def reference_wheel_rate(mechanism: Mechanism, solver: PlanarMultibodySolver | N
     qd = s.velocities(q, np.ones((1, 1)))
     qdd = s.accelerations(q, qd, np.zeros((1, 1)))
     wheel = s.marker_names.index(roles['wheel_marker'])
-    w1 = float(s.marker_velocities(q, qd)[0, wheel, 1])
-    w2 = float(s.marker_accelerations(q, qd, qdd)[0, wheel, 1])
-    if abs(w1) < 1e-12:
+    w1 = s.marker_velocities(q, qd)[0, wheel, 1]
+    w2 = s.marker_accelerations(q, qd, qdd)[0, wheel, 1]
+    a = b = mr = np.float64(0.0)
+    with np.errstate(all='ignore'):  # a degenerate linkage: refused below, not an error
+        for spec in mechanism.forces:
+            if not is_spring(spec):
+                continue
+            sp = s.spring(spec.name, q, qd, qdd=qdd)
+            s_w = sp.rate[0] / w1
+            s_ww = (sp.acceleration[0] - s_w * w2) / w1**2
+            dfl = sp.deflection[0]
+            if spec.name == roles['spring']:
+                a, mr = s_w**2 + dfl * s_ww, -s_w
+            else:
+                b = b + spec.stiffness * (s_w**2 + dfl * s_ww) + spec.preload * s_ww
+    if not (abs(w1) > 1e-9 and np.isfinite(a) and np.isfinite(b) and np.isfinite(mr)):
         raise ConfigError(f'{mechanism.name}: suspension.wheel_marker: '
                           f'{roles["wheel_marker"]!r} does not move vertically with the '
                           'independent coordinate at the reference pose')
-    a = b = mr = 0.0
-    for spec in mechanism.forces:
-        if not is_spring(spec):
-            continue
-        sp = s.spring(spec.name, q, qd, qdd=qdd)
-        s_w = float(sp.rate[0]) / w1
-        s_ww = (float(sp.acceleration[0]) - s_w * w2) / w1**2
-        dfl = float(sp.deflection[0])
-        if spec.name == roles['spring']:
-            a, mr = s_w**2 + dfl * s_ww, -s_w
-        else:
-            b += spec.stiffness * (s_w**2 + dfl * s_ww) + spec.preload * s_ww
-    return a, b, mr
+    return float(a), float(b), float(mr)
