@@ -775,10 +775,11 @@ def _size_checks(cfg: StudyConfig) -> list[str]:
     total = sum(n for n, _, _ in sizes)
     if total > MAX_NLP_VARIABLES:
         n, sc, key = max(sizes, key=lambda x: x[0])
+        everything = f' ({total:.3g} with all scenarios)' if len(sizes) > 1 else ''
         errs.append(f'{key}: {sc.segments} segments of order {sc.order} over {sc.horizon:g} s '
-                    f'make {n:.3g} NLP variables{" (all scenarios: %.3g)" % total if len(sizes) > 1 else ""}'
-                    f', at most {MAX_NLP_VARIABLES:.3g} can be built in reasonable time and '
-                    'memory; check maneuver.horizon and the grid')
+                    f'make {n:.3g} NLP variables{everything}, at most {MAX_NLP_VARIABLES:.3g} '
+                    'can be built in reasonable time and memory; check maneuver.horizon and '
+                    'the grid')
     return errs
 
 
@@ -880,10 +881,11 @@ def _mechanism_checks(cfg: StudyConfig) -> list[str]:
             if bad:
                 why = ('the spring does not deflect with the wheel travel' if abs(mr) < 0.03
                        else 'the other springs make it unstable')
+                rate, mr = a * bad[0] + b + 0.0, mr + 0.0  # no "-0"
                 errs.append(f'{key}: {mechanism_path(name)}: suspension.spring: wheel rate '
-                            f'{a * bad[0] + b + 0.0:.4g} N/m at the reference pose for {n} = '
-                            f'{bad[0]:g} N/m (motion ratio {mr + 0.0:.3g}; {why}): the linkage is '
-                            'statically unstable; it needs a positive wheel rate over '
+                            f'{rate:.4g} N/m at the reference pose for {n} = {bad[0]:g} N/m '
+                            f'(motion ratio {mr:.3g}; {why}): the linkage is statically '
+                            'unstable; it needs a positive wheel rate over '
                             f'[{dv.lower:g}, {dv.upper:g}] (force {spring!r})')
                 break
     return errs
