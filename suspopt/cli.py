@@ -147,15 +147,24 @@ def _verdict(res: dict[str, Any]) -> str:
 
 
 def _summary(res: dict[str, Any]) -> str:
-    d, J, s = res['design'], res['terms'], res['scales']
-    f = res['objective'] if res['objective'] is not None else res.get('objective_at_stop')
+    d, s = res['design'], res['scales']
     lines = [f"{res['fidelity']}-fidelity {res['mode']} ({res['method']}): "
-             f"{_verdict(res)} — {res['status']}",
-             '  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
-             f"  objective f = {f:.6f}{'' if res['success'] else ' (not converged)'}   "
-             + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items()),
-             f"  scales ({res['normalization']}) "
-             + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())]
+             f"{_verdict(res)} — {res['status']}"]
+    if res['success']:
+        J = res['terms']
+        lines += ['  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+                  f"  objective f = {res['objective']:.6f}   "
+                  + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())]
+    else:  # what IPOPT stopped at is not a result: never printed as one
+        stop, J = res.get('objective_at_stop'), res.get('terms_at_stop') or {}
+        lines += ['  design at the stop (not a result)   '
+                  + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+                  '  objective f: none (not converged'
+                  + (f'; {stop:.6g} at the stop' if stop is not None else '') + ')'
+                  + ('   at the stop: ' + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())
+                     if J else '')]
+    lines.append(f"  scales ({res['normalization']}) "
+                 + '  '.join(f'{k} = {v:.5g}' for k, v in s.items()))
     v = res.get('verification') or {}
     if 'max_rel_diff' in v:
         lines.append(f"  time marching f = {v['objective']:.6f}, largest relative difference "
@@ -201,7 +210,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log(f'optimizing the {args.fidelity}-fidelity model; results in {out.path}')
-        res = optimize(config, args.fidelity, start=start, out_dir=out.path,
+        res = optimize(config, args.fidelity, start=start, out_dir=out,
                        progress=progress, verify=not args.no_verify)
     print(_summary(res))
     return _check_result(res)

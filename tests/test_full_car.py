@@ -60,7 +60,7 @@ def test_full_car_reduces_to_the_half_car_by_time_marching(cfg):
 def test_full_car_reduces_to_the_half_car_by_collocation(cfg, scales):
     """The same on one grid: the collocation solutions agree to 1e-8 (IPOPT at tol 1e-12)."""
     tight = dict(optimizer={'tol': 1e-12, 'options': {'constr_viol_tol': 1e-14}},
-                 transcription={'segments': 40})
+                 transcription={'segments': 50})  # 2 nodes per period of the stiffest hop
     half_cfg = config_from_dict({**cfg.to_dict(), **tight})
     full = reduced_full_car(half_cfg)
     full = config_from_dict({**full.to_dict(), **tight})

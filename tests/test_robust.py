@@ -3,6 +3,8 @@ problem, stationarity of the sum against separately built problems, the worst ca
 dense-row (reverse) derivatives of the epigraph form."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -94,7 +96,8 @@ def test_dense_rows_by_reverse_solves_equal_openmdaos_totals(monkeypatch):
     others, equal OpenMDAO's uncolored driver-scaled totals; the coloring is a valid
     column coloring of the remaining rows."""
     monkeypatch.setattr(sparsity, 'DENSE_ROW_MIN', 20)  # the tiny grid's rows are short
-    cfg = _config(TWO, aggregate='max', segments=4)
+    cfg = _config(TWO, aggregate='max')  # a structure test: 4 segments (refused in a file)
+    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=4))
     scales = tuple(dict.fromkeys(cfg.terms(), 1.0) for _ in cfg.scenarios())
     with VehicleProblem(cfg, 'low', scales, use_cache=False) as vp:
         drv = vp.driver
