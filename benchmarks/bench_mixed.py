@@ -1,18 +1,18 @@
 """Benchmark: mixed-fidelity optimization from the low-fidelity optimum (issue 5).
 
-    python benchmarks/bench_mixed.py [--repeat 3] [--segments 80]
+    python benchmarks/bench_mixed.py [--repeat 3] [--segments 80] [--mount ground|chassis|both]
     python benchmarks/bench_mixed.py --mechanism macpherson [--repeat 5]
 
 Prints the one-time coloring cost, then over repeats (cached coloring): setup, solve,
 total, IPOPT iterations, black-box calls per Jacobian and in total, and the share of the
 solve spent inside the multibody solver; plus the low-fidelity solve on the same grid for
-the mixed/low ratio.
-
+the mixed/low ratio. ``--mount chassis`` benchmarks the chassis-mounted modules (issue
+16); ``both`` runs the two mounts interleaved, repeat by repeat, from the same
+low-fidelity optimum and prints the chassis/ground ratio of the medians.
 ``--mechanism NAME`` (built-in name or TOML path, on both axles) measures that topology
-side by side with the double wishbone in the same run, the repeats interleaved (DW,
-NAME, DW, NAME, ...) so that a change of machine load hits both alike, and prints both
-tables and the ratios of their medians (issue 12's target: MacPherson at most 1.5x the
-double wishbone).
+side by side with the double wishbone in the same run, interleaved the same way, and
+prints the NAME/double-wishbone ratios of the medians (issue 12's target: the MacPherson
+at most 1.5x the double wishbone).
 """
 from __future__ import annotations
 
@@ -27,14 +27,14 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, table, timed_optimize  # noqa: E402
 
 from suspopt.config import StudyConfig, config_from_dict  # noqa: E402
-from suspopt.multibody.components import SuspensionDynamicsComp, SuspensionKinematicsComp  # noqa: E402
+from suspopt.multibody.components import (ChassisMountDynamicsComp,  # noqa: E402
+                                          SuspensionDynamicsComp, SuspensionKinematicsComp)
 from suspopt.study import optimize, resolve_scales  # noqa: E402
 
 
 @contextmanager
 def _count_compute(*comp_classes):
-    """Count the black-box calls (``evaluate``: one batched query of every node) of
-    component classes, whether from compute() or from the FD of compute_partials()."""
+    """Count black-box queries (evaluate() calls) of component classes."""
     counts = {cls: 0 for cls in comp_classes}
     originals = {cls: cls.evaluate for cls in comp_classes}
 
@@ -58,13 +58,39 @@ def run_once(cfg, scales, start, fidelity='mixed') -> dict:
     vp = out.pop('problem')
     if fidelity == 'mixed':
         # black-box calls per Jacobian: one colored total-derivative evaluation
-        totals = vp.driver._totals  # the driver's colored total Jacobian (after the solve)
-        totals.compute()
-        with _count_compute(SuspensionKinematicsComp, SuspensionDynamicsComp) as counts:
-            totals.compute()
-        out['per_jacobian'] = (counts[SuspensionKinematicsComp], counts[SuspensionDynamicsComp])
+        with _count_compute(SuspensionKinematicsComp, SuspensionDynamicsComp,
+                            ChassisMountDynamicsComp) as counts:
+            vp.problem.model.run_linearize()  # the partials of one total Jacobian
+        out['per_jacobian'] = (counts[SuspensionKinematicsComp],
+                               counts[SuspensionDynamicsComp] + counts[ChassisMountDynamicsComp])
     vp.cleanup()
     return out
+
+
+def _report(label: str, runs: list[dict], cold: dict, segments: int) -> None:
+    print(f"{label}: one-time total coloring (empty cache): {cold['coloring']:.2f} s\n")
+    print(f'{label}, cached coloring, {len(runs)} runs:\n')
+    print(table([
+        ('setup [s]', [r['setup'] for r in runs]),
+        ('guess (half-car time marching) [s]', [r['guess'] for r in runs]),
+        ('solve [s]', [r['solve'] for r in runs]),
+        ('total [s]', [r['total'] for r in runs]),
+        ('IPOPT iterations', [r['iterations'] for r in runs]),
+        ('function evaluations', [r['fevals'] for r in runs]),
+        ('gradient evaluations', [r['gevals'] for r in runs]),
+        ('position analyses, batched over all nodes (whole solve)',
+         [r['calls']['positions'] for r in runs]),
+        ('augmented solves of eq. 11, batched (whole solve)',
+         [r['calls']['augmented'] for r in runs]),
+        ('module queries answered from its memory (whole solve)', [r['reused'] for r in runs]),
+        ('time inside the multibody solver [s]', [r['mbd_s'] for r in runs]),
+        ('share of the solve inside the multibody solver', [r['mbd_s'] / r['solve'] for r in runs]),
+        ('f at the optimum', [r['f'] for r in runs]),
+    ]))
+    kin, dyn = runs[-1]['per_jacobian']
+    print(f'\nblack-box calls per total Jacobian: {kin} kinematic + {dyn} dynamic component '
+          f'evaluations (one per input variable with forward FD), independent of the '
+          f'{segments * 5} nodes\n')
 
 
 def with_mechanism(cfg: StudyConfig, mechanism: str) -> StudyConfig:
@@ -74,34 +100,11 @@ def with_mechanism(cfg: StudyConfig, mechanism: str) -> StudyConfig:
     return config_from_dict(d)
 
 
-def mixed_table(runs: list[dict]) -> str:
-    return table([
-        ('setup [s]', [r['setup'] for r in runs]),
-        ('guess (half-car time marching) [s]', [r['guess'] for r in runs]),
-        ('solve [s]', [r['solve'] for r in runs]),
-        ('total [s]', [r['total'] for r in runs]),
-        ('IPOPT iterations', [r['iterations'] for r in runs]),
-        ('function evaluations', [r['fevals'] for r in runs]),
-        ('gradient evaluations', [r['gevals'] for r in runs]),
-        ('solve per IPOPT iteration [s]', [r['solve'] / max(r['iterations'], 1) for r in runs]),
-        ('position analyses, batched over all nodes (whole solve)',
-         [r['calls']['positions'] for r in runs]),
-        ('augmented solves of eq. 11, batched (whole solve)',
-         [r['calls']['augmented'] for r in runs]),
-        ('module queries answered from its memory (whole solve)', [r['reused'] for r in runs]),
-        ('time inside the multibody solver [s]', [r['mbd_s'] for r in runs]),
-        ('share of the solve inside the multibody solver', [r['mbd_s'] / r['solve'] for r in runs]),
-    ])
-
-
-def med(runs: list[dict], key: str) -> float:
-    return statistics.median(r[key] for r in runs)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--repeat', type=int, default=3)
     ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
+    ap.add_argument('--mount', choices=('ground', 'chassis', 'both'), default='ground')
     ap.add_argument('--mechanism', metavar='NAME',
                     help='measure this mechanism (both axles) side by side with the double '
                          'wishbone')
@@ -109,53 +112,54 @@ def main() -> None:
     cfg = StudyConfig()
     cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
                                                         segments=args.segments))
-    scales = resolve_scales(cfg)
-    names = ['double_wishbone'] + ([args.mechanism] if args.mechanism
+    mounts = ('ground', 'chassis') if args.mount == 'both' else (args.mount,)
+    mechs = ['double_wishbone'] + ([args.mechanism] if args.mechanism
                                    and args.mechanism != 'double_wishbone' else [])
-    cfgs = {n: with_mechanism(cfg, n) for n in names}
-    print(f'# mixed-fidelity optimize from the low-fidelity optimum, {args.segments} x 5 grid '
-          f"— {', '.join(names)} — {machine()}, suspopt {git_revision()}\n")
+    cfgs = {(mech, m): with_mechanism(cfg, mech).replace(
+        multibody=dataclasses.replace(cfg.multibody, mount=m)) for mech in mechs for m in mounts}
+    label = {key: (f'{key[0]}, ' if len(mechs) > 1 else '') + f'mount {key[1]}' for key in cfgs}
+    scales = resolve_scales(cfg)
+    print(f'# mixed-fidelity optimize from the low-fidelity optimum, {args.segments} x 5 grid, '
+          f"mount {args.mount}, {', '.join(mechs)} — {machine()}, suspopt {git_revision()}\n")
     with fresh_cache():
-        low = optimize(cfg, 'low', scales=scales, verify=False)
+        low = optimize(cfg, 'low', scales=scales)
         start = low['design']
-        cold = {n: run_once(c, scales, start) for n, c in cfgs.items()}
-        runs: dict[str, list[dict]] = {n: [] for n in names}
-        for _ in range(args.repeat):  # interleaved: the same load for every mechanism
-            for n, c in cfgs.items():
-                runs[n].append(run_once(c, scales, start))
+        cold = {k: run_once(c, scales, start) for k, c in cfgs.items()}
+        runs = {k: [] for k in cfgs}
+        for _ in range(args.repeat):  # interleaved: the machine's load hits all alike
+            for k, c in cfgs.items():
+                runs[k].append(run_once(c, scales, start))
         lows = [run_once(cfg, scales, cfg.design.initial(), 'low')
                 for _ in range(args.repeat)]
-    for n in names:
-        r0 = runs[n][-1]
-        print(f'## {n}\n')
-        print(f"one-time total coloring (empty cache): {cold[n]['coloring']:.2f} s\n")
-        print(f'mixed fidelity, cached coloring, {args.repeat} runs:\n')
-        print(mixed_table(runs[n]))
-        kin, dyn = r0['per_jacobian']
-        print(f'\nblack-box calls per total Jacobian: {kin} kinematic + {dyn} dynamic component '
-              'evaluations (one component of each kind for both corners; forward FD: one '
-              'perturbation per input — z_W, v_W; z_W, v_W, z_M, v_M, F_T, k_S, c_S — the base '
-              f'point reused from compute), independent of the {args.segments * 5} nodes')
-        print('optimum: ' + ', '.join(f'{k} = {v:.2f}' for k, v in r0['design'].items())
-              + f", f = {r0['f']:.7f} ({'converged' if r0['success'] else 'NOT converged'})\n")
+    for k in cfgs:
+        _report(label[k], runs[k], cold[k], args.segments)
     lo = statistics.median(r['total'] for r in lows)
-    lo_it = statistics.median(r['iterations'] for r in lows)
     print(f'low fidelity on the same grid (from the initial design): total {lo:.2f} s, '
-          f'{lo_it:.0f} iterations')
-    for n in names:
-        mi = med(runs[n], 'total')
-        print(f"{n}: mixed / low total (medians): {mi / lo:.2f}x; per iteration: "
-              f"{(mi / med(runs[n], 'iterations')) / (lo / lo_it):.2f}x")
-    if len(names) > 1:
-        a, b = runs[names[0]], runs[names[1]]
-        per_it = (med(b, 'solve') / med(b, 'iterations')) / \
-            (med(a, 'solve') / med(a, 'iterations'))
-        print(f'\n{names[1]} / {names[0]} (medians, measured side by side): total '
-              f"{med(b, 'total') / med(a, 'total'):.2f}x, solve "
-              f"{med(b, 'solve') / med(a, 'solve'):.2f}x, IPOPT iterations "
-              f"{med(b, 'iterations'):.0f} / {med(a, 'iterations'):.0f}, solve per iteration "
-              f"{per_it:.2f}x, "
-              f"time inside the multibody solver {med(b, 'mbd_s') / med(a, 'mbd_s'):.2f}x")
+          f"{statistics.median(r['iterations'] for r in lows):.0f} iterations")
+    for k in cfgs:
+        mi = statistics.median(r['total'] for r in runs[k])
+        it = statistics.median(r['iterations'] for r in runs[k])
+        print(f'{label[k]}: mixed / low total (medians): {mi / lo:.2f}x; per iteration: '
+              f"{(mi / it) / (lo / statistics.median(r['iterations'] for r in lows)):.2f}x")
+    med = {k: {q: statistics.median(r[q] for r in runs[k]) for q in ('solve', 'total',
+                                                                      'iterations', 'mbd_s')}
+           for k in cfgs}
+
+    def ratio(a, b, what: str) -> None:
+        r = {q: med[b][q] / med[a][q] for q in ('solve', 'total', 'mbd_s')}
+        per_it = r['solve'] * med[a]['iterations'] / med[b]['iterations']
+        print(f"\n{what} (medians, measured side by side): solve {r['solve']:.2f}x, total "
+              f"{r['total']:.2f}x, solve per IPOPT iteration {per_it:.2f}x (iterations "
+              f"{med[b]['iterations']:.0f} vs {med[a]['iterations']:.0f}), time inside the "
+              f"multibody solver {r['mbd_s']:.2f}x")
+
+    for mech in mechs:
+        if len(mounts) == 2:
+            ratio((mech, 'ground'), (mech, 'chassis'), f'{mech}: chassis / ground mount')
+    for m in mounts:
+        if len(mechs) == 2:
+            ratio(('double_wishbone', m), (mechs[1], m),
+                  f'mount {m}: {mechs[1]} / double_wishbone')
 
 
 if __name__ == '__main__':

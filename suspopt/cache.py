@@ -63,6 +63,7 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
     if fidelity == 'mixed':
         structure['mechanisms'] = [load_mechanism(ax.mechanism, suspension=True).structure()
                                    for ax in v.axles]
+        structure['mount'] = config.multibody.mount
     blob = json.dumps(structure, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:32]
 

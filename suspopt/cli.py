@@ -8,6 +8,7 @@
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
     suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
+    suspopt robust --config FILE [--fidelity ...]         robust design over the scenarios
     suspopt sweep FILE --out DIR [--workers N | --scheduler ADDR]   many runs on Dask
 
 A DESIGN is the design variables' values in order (``30000,30000,3000,3000`` for the half
@@ -93,6 +94,8 @@ def _config(args: argparse.Namespace) -> StudyConfig:
         data['transcription']['order'] = args.order
     if getattr(args, 'max_iter', None) is not None:
         data['optimizer']['max_iter'] = args.max_iter
+    if getattr(args, 'mount', None):
+        data['multibody']['mount'] = args.mount
     return config_from_dict(data)
 
 
@@ -145,15 +148,24 @@ def _verdict(res: dict[str, Any]) -> str:
 
 
 def _summary(res: dict[str, Any]) -> str:
-    d, J, s = res['design'], res['terms'], res['scales']
-    f = res['objective'] if res['objective'] is not None else res.get('objective_at_stop')
+    d, s = res['design'], res['scales']
     lines = [f"{res['fidelity']}-fidelity {res['mode']} ({res['method']}): "
-             f"{_verdict(res)} — {res['status']}",
-             '  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
-             f"  objective f = {f:.6f}{'' if res['success'] else ' (not converged)'}   "
-             + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items()),
-             f"  scales ({res['normalization']}) "
-             + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())]
+             f"{_verdict(res)} — {res['status']}"]
+    if res['success']:
+        J = res['terms']
+        lines += ['  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+                  f"  objective f = {res['objective']:.6f}   "
+                  + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())]
+    else:  # what IPOPT stopped at is not a result: never printed as one
+        stop, J = res.get('objective_at_stop'), res.get('terms_at_stop') or {}
+        lines += ['  design at the stop (not a result)   '
+                  + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+                  '  objective f: none (not converged'
+                  + (f'; {stop:.6g} at the stop' if stop is not None else '') + ')'
+                  + ('   at the stop: ' + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())
+                     if J else '')]
+    lines.append(f"  scales ({res['normalization']}) "
+                 + '  '.join(f'{k} = {v:.5g}' for k, v in s.items()))
     v = res.get('verification') or {}
     if 'max_rel_diff' in v:
         lines.append(f"  time marching f = {v['objective']:.6f}, largest relative difference "
@@ -199,7 +211,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log(f'optimizing the {args.fidelity}-fidelity model; results in {out.path}')
-        res = optimize(config, args.fidelity, start=start, out_dir=out.path,
+        res = optimize(config, args.fidelity, start=start, out_dir=out,
                        progress=progress, verify=not args.no_verify)
     print(_summary(res))
     return _check_result(res)
@@ -233,6 +245,30 @@ def cmd_study(args: argparse.Namespace) -> int:
     print(f"results: {out.path}/study.json, table.md, figures/ ({study['wall_time_s']:.1f} s)")
     if study.get('verified') is False:
         print(f"suspopt: error: {study['warnings'][-1]}", file=sys.stderr)
+        return NotVerified.exit_code
+    return 0
+
+
+def cmd_coupling(args: argparse.Namespace) -> int:
+    from suspopt.coupling import run_coupling
+    from suspopt.results import RunDirectory
+    from suspopt.study import StepFailed
+    config = _config(args)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log('the coupling assumption: two-step studies with the frame on the ground and on '
+            f'the chassis, 4 designs x 3 models; results in {out.path}')
+        try:
+            res = run_coupling(config, out, progress=progress, log=log,
+                               verify=not args.no_verify)
+        except StepFailed as err:
+            print(f'suspopt: error: {err}; partial results in {out.path}', file=sys.stderr)
+            return 1
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/coupling.json, table.md, figures/coupling.png "
+          f"({res['wall_time_s']:.1f} s)")
+    if res.get('verified') is False:
+        print(f"suspopt: error: {res['warnings'][-1]}", file=sys.stderr)
         return NotVerified.exit_code
     return 0
 
@@ -297,6 +333,33 @@ def cmd_compare(args: argparse.Namespace) -> int:
     elif code == NotVerified.exit_code:
         print(f"suspopt: error: {data['warnings'][-1]}", file=sys.stderr)
     return code
+
+
+def cmd_robust(args: argparse.Namespace) -> int:
+    from suspopt.results import RunDirectory
+    from suspopt import report
+    from suspopt.robust import run_robust
+    config = _config(args)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'robust design of the {args.fidelity}-fidelity model; results in {out.path}')
+        data = run_robust(config, out, fidelity=args.fidelity, progress=progress, log=log,
+                          verify=not args.no_verify)
+        log('writing table and figure')
+        report.render(out.path)
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/robust.json, table.md, figures/robustness.png "
+          f"({data['wall_time_s']:.1f} s)")
+    failed = [k for k, r in data['optima'].items() if not r['success']]
+    if failed:
+        print(f"suspopt: error: IPOPT did not converge for {', '.join(failed)}; the others "
+              'are kept', file=sys.stderr)
+        return 1
+    if data.get('verified') is False:
+        print('suspopt: error: some optimum is NOT verified by time marching (see table.md)',
+              file=sys.stderr)
+        return NotVerified.exit_code
+    return 0
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -372,8 +435,13 @@ def build_parser() -> argparse.ArgumentParser:
                     'multibody suspension linkages; Dymos Radau collocation; IPOPT).')
     sub = parser.add_subparsers(dest='command', required=True)
 
-    def common(p: argparse.ArgumentParser, grid: bool = True, verify: bool = True) -> None:
+    def common(p: argparse.ArgumentParser, grid: bool = True, verify: bool = True,
+               mount: bool = True) -> None:
         p.add_argument('--config', metavar='FILE', help='study file (TOML); see `suspopt init`')
+        if mount:
+            p.add_argument('--mount', choices=('ground', 'chassis'),
+                           help="multibody modules' frame on the ground (the paper) or on the "
+                                'chassis; default: from the config (multibody.mount)')
         p.add_argument('--normalization', choices=('reference', 'paper'),
                        help='objective normalization (SPEC §5); default: from the config')
         if grid:
@@ -395,6 +463,14 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     run_opts(p, 'results/study')
     p.set_defaults(func=cmd_study)
+
+    p = sub.add_parser('coupling', help='how much the coupling of the multibody modules '
+                                        '(frame on the ground, as the paper, or on the '
+                                        'chassis) moves the optimum: 4 designs x 3 models',
+                       epilog=EPILOG)
+    common(p, mount=False)
+    run_opts(p, 'results/coupling')
+    p.set_defaults(func=cmd_coupling)
 
     p = sub.add_parser('optimize', help='optimize one model', epilog=EPILOG)
     p.add_argument('--fidelity', choices=('low', 'mixed'), required=True)
@@ -430,6 +506,14 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     run_opts(p, 'results/compare')
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser('robust', help='robust design over the study file\'s scenarios: the '
+                                      'robust optimum against each scenario\'s own',
+                       epilog=EPILOG)
+    p.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
+    common(p)
+    run_opts(p, 'results/robust')
+    p.set_defaults(func=cmd_robust)
 
     p = sub.add_parser('sweep', help='many optimizations or studies in parallel on Dask '
                                      '(a sweep file: axes or a task list)', epilog=EPILOG)

@@ -38,8 +38,8 @@ import numpy as np
 from suspopt.config import StudyConfig, config_from_dict
 from suspopt.errors import ConfigError, ModelError, RunError
 from suspopt.results import RunDirectory, write_json
-from suspopt.study import (VERIFY_TOLERANCE, Progress, StepFailed, evaluate, optimize,
-                           resolve_scales, verified)
+from suspopt.study import (VERIFY_TOLERANCE, Interrupted, Progress, StepFailed, evaluate,
+                           optimize, resolve_scales, verified)
 from suspopt.transcription.problem import VehicleProblem
 
 #: the shipped topologies, in the order the paper names them (and the SLA variation)
@@ -154,7 +154,8 @@ def kinematics_record(mechanisms: dict[str, str], spring_rate: float) -> dict[st
 
 
 def _copy_mechanisms(out: Path, topologies: list[tuple[str, str]]) -> dict[str, str]:
-    """Copy every mechanism file (not the built-in ones) into ``inputs/``: file → copy."""
+    """Copy every mechanism file (not the built-in ones) into ``inputs/``: file → its copy
+    relative to ``out`` (``inputs/mechanism_<i>_<name>``; a built-in name maps to itself)."""
     from suspopt.multibody.mechanism import builtin_mechanisms
     copies: dict[str, str] = {}
     for src in dict.fromkeys(m for t in topologies for m in t):
@@ -167,7 +168,7 @@ def _copy_mechanisms(out: Path, topologies: list[tuple[str, str]]) -> dict[str, 
             shutil.copyfile(src, dst)
         except OSError as err:
             raise RunError(f'cannot copy {src} into {dst.parent}: {err.strerror}') from None
-        copies[src] = str(dst.resolve())
+        copies[src] = f'inputs/{dst.name}'
     return copies
 
 
@@ -238,7 +239,8 @@ def run_compare(config: StudyConfig, out_dir: str | Path | RunDirectory,
     }
     save = lambda: write_json(out / 'compare.json', data)  # noqa: E731
     save()
-    mech_files = {mechanism_label(m): copies[m] for t in topologies for m in t}
+    mech_files = {mechanism_label(m): m if copies[m] == m else str(out / copies[m])
+                  for t in topologies for m in t}
     k0 = next((v for n, v in config.design.initial().items() if n.startswith('k_S')), None)
     data['kinematics'] = kinematics_record(mech_files, float(k0) if k0 else 30000.0)
     save()
@@ -260,6 +262,10 @@ def run_compare(config: StudyConfig, out_dir: str | Path | RunDirectory,
                            problem=problems[model], label=design, guess=guess, verify=verify)
         except ModelError as err:
             rec = _failed_record(fid, 'evaluate', data['designs'][design], err, cfg)
+        except Interrupted as stop:  # kept if IPOPT had converged (then unchecked)
+            if stop.result and stop.result.get('success'):
+                keep(design, model, stop.result)
+            raise
         return keep(design, model, rec)
 
     def opt(model: str, fid: str, cfg: StudyConfig, start: str, result: str, guess='keep'):
@@ -271,6 +277,13 @@ def run_compare(config: StudyConfig, out_dir: str | Path | RunDirectory,
                            verify=verify)
         except ModelError as err:
             res = _failed_record(fid, 'optimize', data['designs'][start], err, cfg)
+        except Interrupted as stop:  # a converged optimum is kept (then unchecked)
+            if stop.result and stop.result.get('success'):
+                data['steps'][model] = stop.result
+                data['designs'][result] = stop.result['design']
+                data['cells'][cell_key(result, model)] = stop.result
+                save()
+            raise
         data['steps'][model] = _strip(res)
         if res['success']:
             data['designs'][result] = res['design']

@@ -252,7 +252,7 @@ def render_compare(out_dir: str | Path) -> list[Path]:
     write_text(out / 'table.md', compare_markdown(data))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', _road_figure(figs / 'road.png', data['config'])]
+    written = [out / 'table.md', _road_figure(figs / 'road.png', out, data['config'])]
     if (data.get('kinematics') or {}).get('curves'):
         written.append(_kinematics_figure(figs / 'kinematics.png', data['kinematics']))
     if data.get('cells'):
@@ -271,5 +271,5 @@ def render_compare(out_dir: str | Path) -> list[Path]:
     if curves:
         written.append(_plot_set(figs / 'trajectories.png',
                                  'Every topology at its own optimum (collocation)', curves,
-                                 data['terms'], _labels(data['config'])))
+                                 data['terms'], _labels(out, data['config'])))
     return written

@@ -95,6 +95,8 @@ def default_config_toml(model: str = 'half_car') -> str:
               '[multibody]                    # finite differences of the black-box module',
               f'fd_form = {tv(mb.fd_form)}         # forward | central',
               f'fd_step = {tv(mb.fd_step)}             # absolute step, SI units of each input',
+              f'mount = {tv(mb.mount)}            # ground (the paper: frame fixed, chassis '
+              'feels F_S) | chassis (frame on the chassis, all reactions)',
               '', '# Several load cases sharing the design (robust design): add tables like',
               '# [[scenario]]', '# name = "city"', '# weight = 1.0', '# speed = 8.0',
               '# road = { profile = "iso8608", road_class = "D", seed = 3 }', '']

@@ -4,7 +4,11 @@ It reads only what the run wrote: ``study.json`` (or ``result.json`` of an optim
 ``pareto.json`` of a Pareto front), the SQLite case recorders (the trajectories of every
 design in each model), ``time_marching.npz`` and the study description inside them (the
 road as used, with copies of its files under ``inputs/``); never the user's original
-files. It writes ``table.md`` and ``figures/*.png``:
+files, and it does not validate the study again (a directory written by an older suspopt
+renders as it was). A damaged or incomplete directory is a one-line
+:class:`~suspopt.errors.ConfigError`. What did not converge is shown as such, never with
+a value as a result; trajectories are drawn only of converged results. It writes
+``table.md`` and ``figures/*.png``:
 
 * ``road.png`` — road input under every wheel (paper Figure 3);
 * ``initial_design.png`` — low- vs mixed-fidelity trajectories at the initial design
@@ -21,12 +25,14 @@ from typing import Any
 
 import numpy as np
 
+from suspopt.errors import ConfigError
 from suspopt.models.objective import term_units
-from suspopt.results import read_json, read_trajectory, write_text
+from suspopt.results import (STUDY_DESIGNS, read_json, read_trajectory, resolve_inputs,
+                             write_text)
 from suspopt.trajectory import Trajectory
 
-DESIGN_LABELS = {'initial': 'Initial guess', 'low_optimum': 'Low-fidelity optimum',
-                 'mixed_optimum': 'Mixed-fidelity optimum'}
+DESIGN_LABELS = dict(zip(STUDY_DESIGNS, ('Initial guess', 'Low-fidelity optimum',
+                                         'Mixed-fidelity optimum')))
 FIDELITY_LABELS = {'low': 'low-fidelity', 'mixed': 'mixed-fidelity (multibody)'}
 CHASSIS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
            ('thdd_C', r'$\ddot\theta_C$ [rad/s$^2$]', 'chassis pitch acceleration'),
@@ -106,7 +112,8 @@ def table_markdown(study: dict[str, Any]) -> str:
             e = ev.get(f'{fid}/{name}')
             if e:
                 lines.append(f'| {label} | {fid} | ' + ' | '.join(
-                    f"{e['terms'][t]:.5g}" for t in terms) + ' |')
+                    f"{e['terms'][t]:.5g}" if e.get('terms') else '—' for t in terms)
+                    + (' |' if e.get('terms') else ' (NOT converged) |'))
     checked = [(name, fid) for name in DESIGN_LABELS for fid in ('low', 'mixed')
                if 'max_rel_diff' in ((ev.get(f'{fid}/{name}') or {}).get('verification') or {})]
     if checked:
@@ -157,20 +164,24 @@ def table_markdown(study: dict[str, Any]) -> str:
 
 def run_markdown(res: dict[str, Any]) -> str:
     """The result of one ``suspopt optimize`` run, as Markdown."""
-    d, J = res.get('design') or {}, res.get('terms') or {}
+    ok = bool(res.get('success'))
+    d, J = res.get('design') or {}, (res.get('terms') if ok else res.get('terms_at_stop')) or {}
     names = list(d)
     lines = [f"**{res['fidelity']}-fidelity {res.get('mode', 'optimize')}** — "
-             f"{'converged' if res.get('success') else 'NOT converged'} "
-             f"({res.get('status', '?')}), {_verdict(res)}, {res.get('iterations', '—')} "
+             f"{'converged' if ok else 'NOT converged'} ({res.get('status', '?')}), "
+             + (f'{_verdict(res)}, ' if ok else '') + f"{res.get('iterations', '—')} "
              f"IPOPT iterations, {_fmt(res.get('wall_time_s'), 3)} s", '',
              '| | ' + ' | '.join(f'{n} [{_design_unit(n)}]' for n in names) + ' | f |',
              '|---|' + '---|' * (len(names) + 1)]
     for label, design, f in (('start', res.get('start') or {}, None),
-                             ('result', d, res.get('objective'))):
+                             ('result' if ok else 'stopped at (not a result)', d,
+                              res.get('objective'))):
         if design:
             lines.append(f'| {label} | ' + ' | '.join(f'{design[n]:.0f}' for n in names)
                          + f' | {"—" if f is None else f"{f:.4f}"} |')
     if J:
+        if not ok:
+            lines += ['', 'Objective terms where IPOPT stopped (NOT converged: not a result):']
         lines += ['', '| ' + ' | '.join(f'J_{t} [{term_units(t)}]' for t in J) + ' |',
                   '|' + '---|' * len(J), '| ' + ' | '.join(_fmt(J[t], 5) for t in J) + ' |']
     v = res.get('verification') or {}
@@ -202,11 +213,11 @@ def pareto_markdown(front: dict[str, Any]) -> str:
     for pt in front['points']:
         d = pt['design']
         lines.append(f"| {pt['alpha']:.3f} | " + ' | '.join(f'{d[n]:.0f}' for n in names)
-                     + f" | {pt['comfort']:.4f} | {pt['road_holding']:.4f} | "
+                     + f" | {_fmt(pt.get('comfort'))} | {_fmt(pt.get('road_holding'))} | "
                      f"{_fmt(pt['objective'])} | {pt['status']} | {pt['iterations']} | "
                      f'{_verdict(pt)} |')
     init = front.get('initial')
-    if init:
+    if init and init.get('comfort') is not None:
         d = init['design']
         lines.append('| initial design | ' + ' | '.join(f'{d[n]:.0f}' for n in names)
                      + f" | {init['comfort']:.4f} | {init['road_holding']:.4f} | | | | |")
@@ -214,6 +225,64 @@ def pareto_markdown(front: dict[str, Any]) -> str:
         lines += ['', f"{len(front['points'])} optimizations on one problem: "
                   f"{front['wall_time_s']:.1f} s in all."]
     return '\n'.join(lines) + '\n'
+
+
+def robust_markdown(data: dict[str, Any]) -> str:
+    """The robustness table (:mod:`suspopt.robust`), as Markdown."""
+    names, scen = data['design_names'], data['scenarios']
+    agg = 'max_s f_s' if data['aggregate'] == 'max' else 'Σ_s w_s f_s'
+    lines = [f"Robust design, {FIDELITY_LABELS[data['fidelity']]} model: {len(scen)} scenarios "
+             f"({', '.join(f'{n} (w = {w:g})' for n, w in zip(scen, data['weights']))}), "
+             f'objective {agg}, each f_s normalized by its own scales.', '',
+             '**Optima** (collocation, each in its own problem)', '',
+             '| optimum | ' + ' | '.join(f'{n} [{_design_unit(n)}]' for n in names)
+             + ' | f | IPOPT | iterations | |', '|---|' + '---|' * (len(names) + 4)]
+    for label, res in data['optima'].items():
+        d = res['design']
+        lines.append(f'| {label} | ' + ' | '.join(f'{d[n]:.0f}' for n in names)
+                     + f" | {_fmt(res['objective'])} | {res['status']} | {res['iterations']} "
+                     f'| {_verdict(res)} |')
+    lines += ['', '**Every optimum on every scenario** (f_s by time marching; the best on each '
+              'scenario in bold)', '',
+              '| optimum | ' + ' | '.join(scen) + f' | {agg} |', '|---|' + '---|' * (len(scen) + 1)]
+    cross = data.get('cross', {})
+    best = {s: min((c['scenarios'][s] for c in cross.values()), default=None) for s in scen}
+    best_agg = min((c['aggregate'] for c in cross.values()), default=None)
+    for label, c in cross.items():
+        cells = [(f"**{c['scenarios'][s]:.4f}**" if c['scenarios'][s] == best[s]
+                  else f"{c['scenarios'][s]:.4f}") for s in scen]
+        a = f"**{c['aggregate']:.4f}**" if c['aggregate'] == best_agg else f"{c['aggregate']:.4f}"
+        lines.append(f'| {label} | ' + ' | '.join(cells) + f' | {a} |')
+    if data.get('wall_time_s') is not None:
+        lines += ['', f"{len(data['optima'])} optimizations: {data['wall_time_s']:.1f} s in all."]
+    return '\n'.join(lines) + '\n'
+
+
+def render_robust(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and ``figures/robustness.png`` of a robust-design directory."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    out = Path(out_dir)
+    data = read_json(out / 'robust.json')
+    write_text(out / 'table.md', robust_markdown(data))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    cross, scen = data.get('cross', {}), data['scenarios']
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(scen) + 2), 4), constrained_layout=True)
+    width = 0.8 / max(len(cross), 1)
+    for k, (label, c) in enumerate(cross.items()):
+        x = np.arange(len(scen)) + (k - (len(cross) - 1) / 2) * width
+        ax.bar(x, [c['scenarios'][s] for s in scen], width,
+               label=f'{label} optimum', hatch='//' if label == 'robust' else None)
+    ax.set_xticks(np.arange(len(scen)), scen)
+    ax.set(ylabel='f_s by time marching (normalized per scenario)',
+           title='Every optimum on every scenario (lower is better)')
+    ax.grid(alpha=0.3, axis='y')
+    ax.legend(fontsize=8)
+    fig.savefig(figs / 'robustness.png', dpi=110)
+    plt.close(fig)
+    return [out / 'table.md', figs / 'robustness.png']
 
 
 # ---------------------------------------------------------------------------- figures
@@ -284,27 +353,39 @@ def _plot_set(path: Path, title: str, curves: list[tuple[str, Trajectory, dict]]
     return path
 
 
-def _road_figure(path: Path, config_dict: dict[str, Any]) -> Path:
+def _setting(out: Path, config_dict: dict[str, Any]):
+    """The car's corners and the first scenario's roads, speed and horizon, from the
+    study description of a results directory (its kept input copies; not validated)."""
+    from suspopt.models.layout import full_car, half_car
+    from suspopt.road import road_tracks
+    cfg = resolve_inputs(out, config_dict)
+    v, man = cfg['vehicle'], cfg['maneuver']
+    a1, a2 = float(v['front']['axle_position']), float(v['rear']['axle_position'])
+    lay = (full_car(a1, a2, float(v['front']['track']), float(v['rear']['track']))
+           if v['model'] == 'full_car' else half_car(a1, a2))
+    sc = (cfg.get('scenario') or [{}])[0]
+    road = sc.get('road') or cfg['road']
+    return (lay, road_tracks(road, lay.n_tracks, lay.track_separation()),
+            float(sc.get('speed') or man['speed']), float(sc.get('horizon') or man['horizon']),
+            road.get('profile'))
+
+
+def _road_figure(path: Path, out: Path, config_dict: dict[str, Any]) -> Path:
     """Road displacement under every wheel over the horizon (paper Figure 3)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from suspopt.config import config_from_dict
-    from suspopt.road import road_tracks
-    config = config_from_dict(config_dict)
-    sc = config.scenarios()[0]
-    lay = config.layout()
-    tracks = road_tracks(sc.road, lay.n_tracks, lay.track_separation())
-    t = np.linspace(0.0, sc.horizon, 2001)
+    lay, tracks, speed, horizon, profile = _setting(out, config_dict)
+    t = np.linspace(0.0, horizon, 2001)
     fig, ax = plt.subplots(figsize=(8, 3.5), constrained_layout=True)
     for c, (corner, off) in enumerate(zip(lay.corners, lay.offsets())):
-        h = tracks[corner.track].r(sc.speed * t - off)
+        h = tracks[corner.track].r(speed * t - off)
         ax.plot(t, h * 1e3, ls='-' if corner.axle == 0 else '--',
                 label=rf'wheel {corner.label} $\delta_{{{corner.label}}}(t)$')
     ax.set_xlabel('time t [s]')
     ax.set_ylabel('road displacement [mm]')
-    ax.set_title(f"Road input ({sc.road.get('profile')}, v = {sc.speed:g} m/s) — paper Fig. 3")
+    ax.set_title(f"Road input ({profile}, v = {speed:g} m/s) — paper Fig. 3")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=110)
@@ -337,32 +418,31 @@ def _convergence_figure(path: Path, runs: dict[str, dict[str, Any]]) -> Path:
     return path
 
 
-def _labels(config_dict: dict[str, Any]) -> list[str]:
-    from suspopt.config import config_from_dict
-    return list(config_from_dict(config_dict).layout().labels)
+def _labels(out: Path, config_dict: dict[str, Any]) -> list[str]:
+    return list(_setting(out, config_dict)[0].labels)
 
 
 def render_run(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a ``suspopt optimize`` directory from its
     ``result.json`` and case recorder ``cases.sql``."""
     out = Path(out_dir)
-    res = read_json(out / 'result.json')
+    res = _read(out / 'result.json')
     write_text(out / 'table.md', run_markdown(res))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
     written = [out / 'table.md']
     fid = res['fidelity']
     if res.get('config'):
-        written.append(_road_figure(figs / 'road.png', res['config']))
+        written.append(_road_figure(figs / 'road.png', out, res['config']))
         tr = read_trajectory(out / 'cases.sql', f'{fid}_optimum') \
-            if (out / 'cases.sql').exists() else None
-        if tr is not None:
+            if (out / 'cases.sql').exists() and res.get('success') else None
+        if tr is not None:  # only a converged result's trajectory
             terms = list(res.get('terms') or {})
             written.append(_plot_set(figs / 'trajectories.png',
                                      f'The {FIDELITY_LABELS[fid]} model at the design found',
                                      [(f'{fid} fidelity', tr, {'color': 'tab:blue' if fid == 'low'
                                                                else 'tab:red', 'lw': 1.2})],
-                                     terms, _labels(res['config'])))
+                                     terms, _labels(out, res['config'])))
     if res.get('history'):
         written.append(_convergence_figure(figs / 'convergence.png', {fid: res}))
     return written
@@ -374,7 +454,7 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     out = Path(out_dir)
-    front = read_json(out / 'pareto.json')
+    front = _read(out / 'pareto.json')
     write_text(out / 'table.md', pareto_markdown(front))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
@@ -386,12 +466,15 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
     for p in ok:
         a1.annotate(f"α={p['alpha']:.2f}", (p['comfort'], p['road_holding']),
                     textcoords='offset points', xytext=(5, 4), fontsize=8)
-    bad = [p for p in pts if not p['success'] or p.get('verified') is False]
+    bad = [(p.get('comfort', p.get('comfort_at_stop')),
+            p.get('road_holding', p.get('road_holding_at_stop')))
+           for p in pts if not p['success'] or p.get('verified') is False]
+    bad = [b for b in bad if None not in b]
     if bad:
-        a1.plot([p['comfort'] for p in bad], [p['road_holding'] for p in bad], 'x',
-                color='tab:red', label='not converged or not verified')
+        a1.plot([c for c, _ in bad], [r for _, r in bad], 'x', color='tab:red',
+                label='not converged (where IPOPT stopped) or not verified')
     init = front.get('initial')
-    if init:
+    if init and init.get('comfort') is not None:
         a1.plot([init['comfort']], [init['road_holding']], 's', color='gray',
                 label='initial design, same model')
     a1.set(xlabel='comfort C (smaller: smoother ride)',
@@ -413,39 +496,76 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
     return [out / 'table.md', figs / 'pareto.png']
 
 
+#: what a results file of each kind must hold to be rendered
+_REQUIRED = {'study.json': ('config', 'scales', 'terms', 'design_names', 'normalization'),
+             'result.json': ('fidelity', 'design', 'success', 'status'),
+             'pareto.json': ('config', 'fidelity', 'design_names', 'bounds', 'normalization',
+                             'points')}
+
+
+def _read(path: Path) -> dict[str, Any]:
+    data = read_json(path)
+    missing = [k for k in _REQUIRED[path.name] if k not in data]
+    if missing:
+        raise ConfigError(f'{path}: damaged or incomplete results file (no '
+                          f'{", ".join(missing)})')
+    return data
+
+
 def render(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a (possibly partial) study directory, or of
-    an optimize, Pareto or topology-study (``compare.json``) directory."""
+    an optimize, Pareto, robust, coupling or topology-study (``compare.json``) directory. A
+    damaged or incomplete one is a ConfigError."""
+    out = Path(out_dir)
+    if not out.is_dir():
+        raise ConfigError(f'{out}: not a directory')
+    try:
+        if not (out / 'study.json').exists() and (out / 'compare.json').exists():
+            from suspopt.compare_report import render_compare  # a topology study
+            return render_compare(out)
+        if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
+            return render_pareto(out)
+        if not (out / 'study.json').exists() and (out / 'robust.json').exists():
+            return render_robust(out)
+        if not (out / 'study.json').exists() and (out / 'coupling.json').exists():
+            return render_coupling(out)
+        if not (out / 'study.json').exists() and (out / 'result.json').exists():
+            return render_run(out)
+        return render_study(out)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as err:
+        if isinstance(err, ConfigError):
+            raise
+        raise ConfigError(f'{out}: damaged or incomplete results ({type(err).__name__}: '
+                          f'{err})') from None
+
+
+def render_study(out: Path) -> list[Path]:
+    """Write ``table.md`` and the figures of a (possibly partial) study directory."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    out = Path(out_dir)
-    if not out.is_dir():
-        from suspopt.errors import ConfigError
-        raise ConfigError(f'{out}: not a directory')
-    if not (out / 'study.json').exists() and (out / 'compare.json').exists():
-        from suspopt.compare_report import render_compare  # a topology study
-        return render_compare(out)
-    if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
-        return render_pareto(out)
-    if not (out / 'study.json').exists() and (out / 'result.json').exists():
-        return render_run(out)
-    study = read_json(out / 'study.json')
+    study = _read(out / 'study.json')
     write_text(out / 'table.md', table_markdown(study))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', _road_figure(figs / 'road.png', study['config'])]
-    terms, labels = study['terms'], _labels(study['config'])
+    written = [out / 'table.md', _road_figure(figs / 'road.png', out, study['config'])]
+    terms, labels = study['terms'], _labels(out, study['config'])
 
     import openmdao.api as om
 
-    from suspopt.study import STUDY_DESIGNS
     traj = {}
+    ev = study.get('evaluations') or {}
     for fid in ('low', 'mixed'):
         if (out / f'{fid}.sql').exists():
-            rec = om.CaseReader(str(out / f'{fid}.sql'))
+            try:
+                rec = om.CaseReader(str(out / f'{fid}.sql'))
+            except Exception as err:  # sqlite's errors of a damaged file
+                raise ConfigError(f'{out / f"{fid}.sql"}: damaged case recorder ({err})') \
+                    from None
             for name in STUDY_DESIGNS:  # recorded under the design's name in each model
+                if not (ev.get(f'{fid}/{name}') or {}).get('success'):
+                    continue  # not a converged result (an interrupted or failed solve)
                 tr = read_trajectory(rec, name)
                 if tr is not None:
                     traj[fid, name] = tr
@@ -476,7 +596,10 @@ def render(out_dir: str | Path) -> list[Path]:
                                  curves, terms, labels))
     tm_path = out / 'time_marching.npz'
     if tm_path.exists() and traj:
-        data = np.load(tm_path)
+        try:
+            data = np.load(tm_path)
+        except Exception as err:  # numpy's and zipfile's errors of a damaged file
+            raise ConfigError(f'{tm_path}: damaged ({err})') from None
         panels = _panels(terms)
         fig, axes = _figure('Collocation (markers) vs time marching (lines)', panels)
         for (fid, name), style in ((('low', 'low_optimum'), low_style),
@@ -498,3 +621,116 @@ def render(out_dir: str | Path) -> list[Path]:
     if steps:
         written.append(_convergence_figure(figs / 'convergence.png', steps))
     return written
+
+
+# ---------------------------------------------------------------------------- coupling
+def coupling_markdown(res: dict[str, Any]) -> str:
+    """The tables of a ``suspopt coupling`` directory (:mod:`suspopt.coupling`)."""
+    from suspopt.coupling import DESIGN_LABELS, DESIGNS, MODEL_LABELS
+    names, ev, designs = res['design_names'], res['evaluations'], res.get('designs', {})
+    cfg = res['config']
+    out = [_scales_line(res['terms'], res['scales'], res['normalization'],
+                        cfg['objective']['weights']), '',
+           '**The four designs**', '',
+           '| design | ' + ' | '.join(f'{n} [{_design_unit(n)}]' for n in names) + ' |',
+           '|---|' + '---|' * len(names)]
+    for d in DESIGNS:
+        if d in designs:
+            out.append(f'| {DESIGN_LABELS[d]} | '
+                       + ' | '.join(f'{designs[d][n]:.0f}' for n in names) + ' |')
+    out += ['', '**f of every design in every model** (collocation; time marching in '
+            'brackets; bold: the optimum of that model)', '',
+            '| design | ' + ' | '.join(MODEL_LABELS.values()) + ' |',
+            '|---|' + '---|' * len(MODEL_LABELS)]
+
+    def cell(m: str, d: str) -> str:
+        e = ev.get(m, {}).get(d)
+        if not e:
+            return '—'
+        v = e.get('verification') or {}
+        tm = f" ({v['objective']:.4f})" if v.get('objective') is not None else ''
+        flag = '' if e.get('verified') is not False else ' **NOT verified**'
+        f = f"{e['objective']:.4f}" if e.get('objective') is not None else '—'
+        return (f'**{f}**' if DESIGNS[d] == m else f) + tm + flag
+
+    for d in DESIGNS:
+        out.append(f'| {DESIGN_LABELS[d]} | ' + ' | '.join(cell(m, d) for m in MODEL_LABELS)
+                   + ' |')
+    out += ['', '**Collocation vs time marching** (largest relative difference over the '
+            'J_k)', '', '| design | ' + ' | '.join(MODEL_LABELS) + ' |',
+            '|---|' + '---|' * len(MODEL_LABELS)]
+    for d in DESIGNS:
+        row = []
+        for m in MODEL_LABELS:
+            v = (ev.get(m, {}).get(d) or {}).get('verification') or {}
+            row.append(f"{v['max_rel_diff']:.2g}" if 'max_rel_diff' in v else '—')
+        out.append(f'| {DESIGN_LABELS[d]} | ' + ' | '.join(row) + ' |')
+    out += ['', '**Objective terms J_k** (collocation)', '',
+            '| design | model | ' + ' | '.join(res['terms']) + ' |',
+            '|---|---|' + '---|' * len(res['terms'])]
+    for d in DESIGNS:
+        for m in MODEL_LABELS:
+            e = ev.get(m, {}).get(d)
+            if e and e.get('terms'):
+                out.append(f'| {DESIGN_LABELS[d]} | {m} | '
+                           + ' | '.join(f"{e['terms'][t]:.5g}" for t in res['terms']) + ' |')
+    s = res.get('summary')
+    if s:
+        change = ', '.join(f'{n} {100 * v:+.1f} %' for n, v in s['design_change'].items())
+        out += ['', f'**What the coupling assumption moves.** From the paper-coupling optimum '
+                f'to the consistent one: {change}. The paper-coupling optimum has f = '
+                f"{s['f_chassis_at_ground_optimum']:.4f} in the chassis-mounted model, "
+                f"{100 * s['loss_of_paper_optimum_in_chassis_model']:+.1f} % against that "
+                f"model's own optimum ({s['f_chassis_at_chassis_optimum']:.4f}); the "
+                "consistent optimum has f = "
+                f"{s['f_ground_at_chassis_optimum']:.4f} in the ground-mounted model "
+                f"(its optimum: {s['f_ground_at_ground_optimum']:.4f})."]
+    if res.get('wall_time_s') is not None:
+        out += ['', f"Whole run: {res['wall_time_s']:.1f} s."]
+    for w in res.get('warnings', []):
+        out += ['', f'**Warning:** {w}']
+    return '\n'.join(out) + '\n'
+
+
+def render_coupling(out_dir: str | Path) -> list[Path]:
+    """Write ``table.md`` and ``figures/coupling.png`` of a coupling directory."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from suspopt.coupling import DESIGN_LABELS, DESIGNS, MODEL_LABELS
+    out = Path(out_dir)
+    res = read_json(out / 'coupling.json')
+    write_text(out / 'table.md', coupling_markdown(res))
+    figs = out / 'figures'
+    figs.mkdir(exist_ok=True)
+    ev, designs, names = res['evaluations'], res.get('designs', {}), res['design_names']
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.4), constrained_layout=True)
+    width = 0.8 / len(MODEL_LABELS)
+    for k, (m, label) in enumerate(MODEL_LABELS.items()):
+        vals = [(ev.get(m, {}).get(d) or {}).get('objective') for d in DESIGNS]
+        xs = [i + (k - 1) * width for i in range(len(DESIGNS))]
+        a1.bar([x for x, v in zip(xs, vals) if v is not None],
+               [v for v in vals if v is not None], width, label=label)
+    a1.set_xticks(range(len(DESIGNS)))
+    a1.set_xticklabels([DESIGN_LABELS[d].split(' (')[0].replace(' optimum', '\noptimum')
+                        for d in DESIGNS], fontsize=8)
+    a1.set_ylabel('f (collocation, verified by time marching)')
+    a1.set_title('Every design in every model')
+    a1.legend(fontsize=8)
+    bounds = res['config']['design']
+    for d in DESIGNS:
+        if d in designs:
+            rel = [(designs[d][n] - bounds[n]['lower']) / (bounds[n]['upper'] - bounds[n]['lower'])
+                   for n in names]
+            a2.plot(range(len(names)), rel, 'o-', label=DESIGN_LABELS[d])
+    a2.set_xticks(range(len(names)))
+    a2.set_xticklabels(names)
+    a2.set_ylim(-0.05, 1.05)
+    a2.set_ylabel('design within its bounds (0 lower, 1 upper)')
+    a2.set_title('The designs')
+    a2.legend(fontsize=7)
+    path = figs / 'coupling.png'
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [out / 'table.md', path]

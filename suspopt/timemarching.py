@@ -23,6 +23,7 @@ from suspopt.config import ConfigError, Scenario, StudyConfig
 from suspopt.errors import ModelError
 from suspopt.models import equations as eq
 from suspopt.models.settings import corner_of_design
+from suspopt.multibody.suspension import RESPONSE
 from suspopt.road import road_tracks
 from suspopt.trajectory import Trajectory
 from suspopt.transcription.problem import Scales, multibody_modules
@@ -78,6 +79,12 @@ class VehicleRHS:
                 else:
                     self.groups.append((mod, [c]))
             self._guess: dict[int, tuple[np.ndarray, ...]] = {}
+        self.mount = config.multibody.mount if fidelity == 'mixed' else 'ground'
+        if self.mount == 'chassis':
+            self.side = np.array([c.side for c in lay.corners], dtype=float)
+            self.L = eq.mount_map(self.a, self.y, self.side, self.roll)
+            self.inertia = [self.M, self.I] + ([self.I_x] if self.roll else [])
+            self.width = len(RESPONSE) + 2 * max(m.n_joints for m, _ in self.groups)
         self.max_constraint_residual = 0.0
         self.n_evals = 0
 
@@ -91,22 +98,24 @@ class VehicleRHS:
             out[:, cols] = road.r(s[:, cols])
         return out
 
-    def _kinematics(self, z_W: np.ndarray, v_W: np.ndarray):
+    def _kinematics(self, z_W: np.ndarray, v_W: np.ndarray, poses=None):
         """Multibody position/velocity analysis of every corner (one batch per mechanism),
-        each Newton started from the last pose moved along its tangent."""
+        each Newton started from the last pose moved along its tangent; ``poses``: the
+        chassis mounts' (z_M, v_M, ψ, ψ̇), each (N, corners)."""
         out = {}
         for g, (mod, cols) in enumerate(self.groups):
             z, v = z_W[:, cols].ravel(), v_W[:, cols].ravel()
+            pose = None if poses is None else tuple(p[:, cols].ravel() for p in poses)
             guess = None
             if g in self._guess and self._guess[g][0].shape[0] == z.size:
                 q, qd, z_prev, v_prev = self._guess[g]
                 safe = np.abs(v_prev) > 1e-9
                 step = np.where(safe, (z - z_prev) / np.where(safe, v_prev, 1.0), 0.0)
                 guess = q + qd * step[:, None]
-            kin = mod.kinematics(z, v, guess)
+            kin = mod.kinematics(z, v, guess, pose=pose)
             self._guess[g] = (kin.state.q, kin.state.qd, z, v)
             self.max_constraint_residual = max(self.max_constraint_residual,
-                                               mod.constraint_residual(kin.state))
+                                               mod.constraint_residual(kin.state, kin.pose))
             out[g] = kin
         return out
 
@@ -130,7 +139,12 @@ class VehicleRHS:
             zdd_W = eq.wheel_acceleration(F_T, F, self.m)
             wheel = z_W
         else:
-            kin = self._kinematics(z_W, v_W)
+            poses = None
+            if self.mount == 'chassis':
+                side = self.side
+                poses = (z_M, v_M, eq.mount_rotation(np.broadcast_to(phi, (N,)), side),
+                         eq.mount_rotation(np.broadcast_to(p, (N,)), side))
+            kin = self._kinematics(z_W, v_W, poses)
             wheel = np.empty((N, nc))
             for g, (_, cols) in enumerate(self.groups):
                 wheel[:, cols] = kin[g].q_W.reshape(N, len(cols))
@@ -138,6 +152,8 @@ class VehicleRHS:
                                      self.bar_right)
             F_T = eq.tyre_force(self.k_T, delta, wheel)
             F_S, zdd_W = np.empty((N, nc)), np.empty((N, nc))
+            if self.mount == 'chassis':
+                return self._chassis_mounted(out, kin, wheel, F_T, F_R)
             for g, (mod, cols) in enumerate(self.groups):
                 acc, force, _ = mod.dynamics(
                     kin[g].state, z_M[:, cols].ravel(), v_M[:, cols].ravel(),
@@ -154,6 +170,31 @@ class VehicleRHS:
         if self.roll:
             out['phidd_C'] = eq.chassis_roll_acceleration(F, self.y, self.I_x)
             chassis.append(out['phidd_C'])
+        out['dJ_dt'] = eq.objective_integrands(chassis, wheel)
+        return out
+
+    def _chassis_mounted(self, out, kin, wheel, F_T, F_R) -> dict[str, np.ndarray]:
+        """The chassis-mounted modules and the chassis, the loop through the mount
+        acceleration solved per state (:func:`~suspopt.models.equations.
+        chassis_mount_accelerations`), as :class:`~suspopt.models.mount.ChassisMountComp`."""
+        N, nc, nu = wheel.shape[0], self.nc, self.L.shape[1]
+        R = np.zeros((N, nc, 1 + nu, self.width))
+        F_S = np.empty((N, nc))
+        for g, (mod, cols) in enumerate(self.groups):
+            resp, force = mod.mount_response(kin[g], np.tile(self.k_S[cols], N),
+                                             np.tile(self.c_S[cols], N),
+                                             (F_T - F_R)[:, cols].ravel(), rotation=self.roll)
+            R[:, cols, :, :resp.shape[2]] = resp.reshape(N, len(cols), 1 + nu, -1)
+            F_S[:, cols] = force.reshape(N, len(cols))
+        F0, G = eq.mount_forces(R, nu)
+        acc = eq.chassis_mount_accelerations(F0, G, F_R, self.L, self.inertia)
+        r = eq.mount_response(R, eq.mount_accelerations(acc, self.L))
+        out.update(q_W=wheel, F_S=F_S, F_R=F_R, F_T=F_T, zdd_W=r[..., 0], F_M=r[..., 1],
+                   wheel_z=wheel, zdd_C=acc[:, 0], thdd_C=acc[:, 1])
+        chassis = [acc[:, 0], acc[:, 1]]
+        if self.roll:
+            out['phidd_C'] = acc[:, 2]
+            chassis.append(acc[:, 2])
         out['dJ_dt'] = eq.objective_integrands(chassis, wheel)
         return out
 
@@ -203,18 +244,22 @@ def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
     pieces_t, pieces_y = [], []
     t0 = time.perf_counter()
     for ta, tb in zip(breaks[:-1], breaks[1:]):
+        mask = (t_eval >= ta) & ((t_eval < tb) | ((tb == breaks[-1]) & (t_eval <= tb)))
+        # the interpolant costs 3 more RHS calls per step: only when asked inside a piece
+        interior = bool(np.any(mask & (t_eval > ta) & (t_eval < tb)))
+        y_a = y
         sol = solve_ivp(rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol,
-                        dense_output=True)
+                        dense_output=interior)
         if sol.status != 0:
             raise ModelError(f'time marching ({fidelity} fidelity) failed at t = '
                              f'{sol.t[-1]:.4g} s: {sol.message}')
         y = sol.y[:, -1]
         if not np.all(np.isfinite(y)):
             raise ModelError(f'time marching ({fidelity} fidelity) produced NaN/inf')
-        mask = (t_eval >= ta) & ((t_eval < tb) | ((tb == breaks[-1]) & (t_eval <= tb)))
         if np.any(mask):
             pieces_t.append(t_eval[mask])
-            pieces_y.append(sol.sol(t_eval[mask]))
+            pieces_y.append(sol.sol(t_eval[mask]) if interior else np.stack(
+                [y_a if t == ta else y for t in t_eval[mask]], axis=1))
     ts = np.concatenate(pieces_t)
     ys = np.concatenate(pieces_y, axis=1)
     wall = time.perf_counter() - t0

@@ -165,7 +165,7 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
     monkeypatch.setattr(compare, 'VehicleProblem', Problem)
     for name in ('_kinematics_figure', '_cross_figure'):  # the tables are the point here
         monkeypatch.setattr(compare_report, name, lambda path, data: path)
-    monkeypatch.setattr(report, '_road_figure', lambda path, config: path)
+    monkeypatch.setattr(report, '_road_figure', lambda path, out, config: path)
 
 
 def _run(tiny, out, capsys, extra=()):

@@ -15,6 +15,7 @@ from suspopt.driver.structure import declared_subjacs
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
 from suspopt.models.forces import (AntiRollBarComp, MountMotionComp, SuspensionForceComp,
                                    TyreForceComp, WheelLoadComp)
+from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
 from suspopt.models.objective import (ObjectiveIntegrandComp, ObjectiveQuadratureComp,
                                       ScenarioObjectiveComp, WeightedObjectiveComp,
                                       WorstCaseGapComp)
@@ -27,6 +28,8 @@ from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
 NN = 7
 FULL = dict(a=np.array([1.3, 1.3, -1.4, -1.4]), y=np.array([0.75, -0.75, 0.74, -0.74]))
 HALF = dict(a=np.array([1.271, -1.713]), y=np.zeros(2))
+SIDES = {'full': dict(side=np.array([1.0, -1.0, 1.0, -1.0]), roll=True, corners=4, **FULL),
+         'half': dict(side=np.zeros(2), roll=False, corners=2, **HALF)}
 #: inputs drawn positive (masses, rates, scales, times)
 POSITIVE = ('k_S', 'c_S', 'k_R', 'scales', 'time', 'weights')
 
@@ -76,6 +79,17 @@ COMPONENTS = {
         weights=radau_quadrature_weights(2, 3, 5.0), terms=4),
     'scenario_objective': lambda: ScenarioObjectiveComp(weights=(1.0, 0.5, 2.0)),
     'worst_case_gap': lambda: WorstCaseGapComp(n=3),
+    'mount_rotation': lambda: MountRotationComp(num_nodes=NN, corners=4,
+                                                side=SIDES['full']['side']),
+    # small masses: the couplings through the mount (e.g. pitch from a roll moment) are then
+    # of order one, well above the exact-sparsity check's threshold
+    'chassis_mount_half': lambda: ChassisMountComp(num_nodes=NN, width=8, M=14.0, I=27.0,
+                                                   **SIDES['half']),
+    'chassis_mount_full': lambda: ChassisMountComp(num_nodes=NN, width=8, M=14.0, I=24.0,
+                                                   I_x=5.7, forces=('F_R',),
+                                                   **SIDES['full']),
+    'mount_response_half': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['half']),
+    'mount_response_full': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['full']),
     'road_two_bumps': lambda: RoadInputComp(num_nodes=NN, tracks=(CosineBumps(),),
                                             speed=10.0, offsets=(0.0, 2.984), track_of=(0, 0)),
     'road_step': lambda: RoadInputComp(num_nodes=NN, tracks=(SmoothStep(position=5.0,

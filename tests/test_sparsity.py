@@ -22,15 +22,22 @@ def _problem(cfg, fidelity):
 def _cases(cfg):
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=5))
     full = full_car_defaults()
-    full = config_from_dict({**full.to_dict(), 'transcription': {'segments': 4},
+    full = config_from_dict({**full.to_dict(),
                              'objective': {'normalization': 'custom', 'scales': dict.fromkeys(
                                  full.terms(), 1.0)}})
+    # a structure test: 4 segments (too coarse for results, refused in a study file)
+    full = full.replace(transcription=dataclasses.replace(full.transcription, segments=4))
+    chassis = dataclasses.replace(small.multibody, mount='chassis')
+    full_chassis = full.replace(multibody=dataclasses.replace(full.multibody, mount='chassis'))
     return {'half car, low': (small, 'low'), 'half car, mixed': (small, 'mixed'),
-            'full car with bars, low': (full, 'low')}
+            'full car with bars, low': (full, 'low'),
+            'half car, mixed, chassis mount': (small.replace(multibody=chassis), 'mixed'),
+            'full car with bars, mixed, chassis mount': (full_chassis, 'mixed')}
 
 
 @pytest.mark.parametrize('case', ['half car, low', 'half car, mixed',
-                                  'full car with bars, low'])
+                                  'full car with bars, low', 'half car, mixed, chassis mount',
+                                  'full car with bars, mixed, chassis mount'])
 def test_structural_sparsity_equals_openmdaos_dense_sparsity(cfg, case):
     config, fidelity = _cases(cfg)[case]
     with _problem(config, fidelity) as vp:

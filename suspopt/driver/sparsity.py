@@ -49,7 +49,10 @@ class Coloring:
     """A column coloring of a sparse Jacobian pattern.
 
     ``rows``/``cols`` are the nonzeros (sorted by column, then row); ``colors[j]`` is the
-    color of column ``j`` (-1 for a column without nonzeros: never solved for).
+    color of column ``j`` among the rows solved forward (-1 for a column without such
+    nonzeros); ``reverse_rows`` are the dense rows (e.g. an epigraph constraint over a whole
+    trajectory), each obtained by one reverse solve instead (bidirectional: a dense row
+    would otherwise make every column a color of its own).
     """
 
     shape: tuple[int, int]
@@ -57,6 +60,7 @@ class Coloring:
     cols: np.ndarray
     colors: np.ndarray
     info: dict = field(default_factory=dict)
+    reverse_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_colors(self) -> int:
@@ -76,17 +80,19 @@ class Coloring:
     def save(self, path: str | Path) -> None:
         with open(path, 'wb') as fh:
             np.savez(fh, shape=np.asarray(self.shape), rows=self.rows, cols=self.cols,
-                     colors=self.colors)
+                     colors=self.colors, reverse_rows=self.reverse_rows)
 
     @classmethod
     def load(cls, path: str | Path) -> 'Coloring':
         with np.load(path) as data:
             return cls(shape=tuple(int(s) for s in data['shape']), rows=data['rows'],
-                       cols=data['cols'], colors=data['colors'])
+                       cols=data['cols'], colors=data['colors'],
+                       reverse_rows=data['reverse_rows'])
 
     def digest(self) -> str:
         h = hashlib.sha256()
-        for a in (np.asarray(self.shape), self.rows, self.cols, self.colors):
+        for a in (np.asarray(self.shape), self.rows, self.cols, self.colors,
+                  self.reverse_rows):
             h.update(np.ascontiguousarray(a).tobytes())
         return h.hexdigest()[:16]
 
@@ -255,6 +261,11 @@ def color_columns(pattern: sp.spmatrix) -> np.ndarray:
     return colors
 
 
+#: a constraint row with more nonzeros than both of these (count, share of the columns) is
+#: computed by a reverse solve
+DENSE_ROW_MIN, DENSE_ROW_SHARE = 200, 0.2
+
+
 def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable]
                      ) -> Coloring:
     """The sparsity of ``d of / d wrt`` and its column coloring, from the declared
@@ -268,10 +279,20 @@ def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable
     t1 = time.perf_counter()
     pattern.sort_indices()
     coo = pattern.tocoo()
-    colors = color_columns(pattern)
+    m, n = pattern.shape
+    row_nnz = np.bincount(coo.row, minlength=m)
+    reverse = np.nonzero(row_nnz > max(DENSE_ROW_MIN, DENSE_ROW_SHARE * n))[0]
+    forward = pattern.tocsr()
+    if reverse.size:
+        keep = np.ones(m, dtype=bool)
+        keep[reverse] = False
+        forward = sp.diags(keep.astype(np.float32)) @ forward
+        forward.eliminate_zeros()
+    colors = color_columns(forward)
     t2 = time.perf_counter()
     return Coloring(shape=tuple(pattern.shape), rows=coo.row.astype(np.int64),
                     cols=coo.col.astype(np.int64), colors=colors,
+                    reverse_rows=reverse.astype(np.int64),
                     info={'method': method, 'sparsity_s': t1 - t0, 'coloring_s': t2 - t1})
 
 

@@ -12,7 +12,8 @@ are
   it) and each nonzero is gathered from the solved ``d_outputs`` straight into the
   Jacobian's nonzero array, in the coloring's order;
 * one reverse solve, ``model.run_solve_linear('rev')``, for the objective gradient (an
-  objective that integrates over all nodes would make every column share its row).
+  objective that integrates over all nodes would make every column share its row), and
+  one for each dense constraint row the coloring leaves to reverse mode.
 
 OpenMDAO prunes each linear solve to the systems relevant to the model's design variables
 and responses. Nothing here forms a dense m × n array.
@@ -94,20 +95,25 @@ class ColoredTotals:
         self._dv_res = flat_positions(d_res, layout.design_vars)
         self._con_out = flat_positions(d_out, layout.constraints)
         self._obj_out = flat_positions(d_out, [layout.objective])
-        self._colors = []
+        self._colors, self._reverse = [], []
         if coloring is not None and layout.m:
             if tuple(coloring.shape) != (layout.m, layout.n):
                 raise ValueError(f'coloring shape {coloring.shape} does not match the '
                                  f'constraint Jacobian ({layout.m}, {layout.n})')
             col_of_nz = coloring.cols
+            forward = ~np.isin(coloring.rows, coloring.reverse_rows)
             for cols in coloring.color_groups():
                 # nonzeros of these columns (coloring sorted by column): positions, rows
                 lo = np.searchsorted(col_of_nz, cols, side='left')
                 hi = np.searchsorted(col_of_nz, cols, side='right')
                 pos = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])
+                pos = pos[forward[pos]]
                 self._colors.append((self._dv_res[cols], pos,
                                      self._con_out[coloring.rows[pos]]))
-        self.n_solves = 0
+            for row in coloring.reverse_rows:
+                pos = np.nonzero(coloring.rows == row)[0]
+                self._reverse.append((self._con_out[row], pos,
+                                      self._dv_res[coloring.cols[pos]]))
 
     def compute(self) -> tuple[np.ndarray, np.ndarray]:
         """(objective gradient (n,), Jacobian values at the coloring's nonzeros)."""
@@ -121,10 +127,14 @@ class ColoredTotals:
             d_res.asarray()[seeds] = -1.0
             model.run_solve_linear('fwd')
             jac[pos] = d_out.asarray()[rows]
-            self.n_solves += 1
+        for seed, pos, cols in self._reverse:
+            d_res.set_val(0.0)
+            d_out.set_val(0.0)
+            d_out.asarray()[seed] = -1.0
+            model.run_solve_linear('rev')
+            jac[pos] = d_res.asarray()[cols]
         d_res.set_val(0.0)
         d_out.set_val(0.0)
         d_out.asarray()[self._obj_out] = -1.0
         model.run_solve_linear('rev')
-        self.n_solves += 1
         return d_res.asarray()[self._dv_res].copy(), jac

@@ -79,3 +79,63 @@ def objective_integrands(chassis_accelerations: list[ArrayLike], wheel_z: ArrayL
     squared chassis accelerations (heave, pitch[, roll]) then each wheel's squared travel."""
     chassis = np.stack([np.square(x) for x in chassis_accelerations], axis=-1)
     return np.concatenate([chassis, np.square(wheel_z)], axis=-1)
+
+
+# ---------------------------------------------------------------- chassis-mounted modules
+def mount_rotation(phi_C: ArrayLike, side: ArrayLike) -> np.ndarray:
+    """Rotation of each corner's suspension frame in its planar front view: ``side · φ_C``
+    (the planar x axis points outboard, so a left corner (side +1) turns with the roll and
+    a right one (side -1) against it; 0 on the half car's centre line)."""
+    return np.asarray(phi_C)[..., None] * np.asarray(side, dtype=float)
+
+
+def mount_map(a: ArrayLike, y: ArrayLike, side: ArrayLike, roll: bool) -> np.ndarray:
+    """``L`` (corners, mount coordinates, chassis coordinates): the mount's accelerations
+    (vertical of P; the frame's rotation with ``roll``) from the chassis accelerations
+    (heave, pitch[, roll]), ``z_M = z_C - a θ_C + y φ_C``, ``ψ = side φ_C``. Its transpose
+    maps the mount's generalized forces (F_z, M_P) to the chassis' (power balance)."""
+    a, y, side = (np.asarray(v, dtype=float) for v in (a, y, side))
+    nc = a.size
+    L = np.zeros((nc, 2 if roll else 1, 3 if roll else 2))
+    L[:, 0, 0], L[:, 0, 1] = 1.0, -a
+    if roll:
+        L[:, 0, 2], L[:, 1, 2] = y, side
+    return L
+
+
+def chassis_mount_accelerations(F0: ArrayLike, G: ArrayLike, F_R: ArrayLike,
+                                L: np.ndarray, inertia: ArrayLike) -> np.ndarray:
+    """Chassis accelerations (N, heave, pitch[, roll]) with chassis-mounted modules: eqs.
+    5-6 (and roll) with the linkage's reactions instead of ``F_S``, solved for the loop
+    they close. A module's generalized mount forces are affine in its mount's
+    acceleration, ``F0 + G L a`` (F0 (N, corners, u), G (N, corners, u, u)), so
+
+        (diag(M, I[, I_x]) - Σ_c L_cᵀ G_c L_c) a = Σ_c L_cᵀ (F0_c + F_R,c e_z),
+
+    one small system per node. ``F_R`` (N, corners): further vertical forces on the
+    chassis (anti-roll bars)."""
+    F0, G = np.asarray(F0), np.asarray(G)
+    A = np.diag(np.asarray(inertia, dtype=float)) - np.einsum('cuk,ncuv,cvl->nkl', L, G, L)
+    b = np.einsum('cuk,ncu->nk', L, F0) + np.asarray(F_R) @ L[:, 0, :]
+    return np.linalg.solve(A, b[..., None])[..., 0]
+
+
+def mount_accelerations(acc_C: ArrayLike, L: np.ndarray) -> np.ndarray:
+    """The mounts' accelerations (N, corners, u) from the chassis' (N, heave, pitch[, roll])."""
+    return np.einsum('cuk,nk->ncu', L, np.asarray(acc_C))
+
+
+def mount_response(R: ArrayLike, a_M: ArrayLike) -> np.ndarray:
+    """A chassis-mounted module's response at its mount's accelerations: ``R_0 + Σ_u a_u
+    R_u`` (R (N, corners, 1 + u, n) blocks: at zero mount acceleration, per unit of each
+    mount coordinate; a_M (N, corners, u)) → (N, corners, n)."""
+    R = np.asarray(R)
+    return R[:, :, 0] + np.einsum('ncu,ncur->ncr', np.asarray(a_M), R[:, :, 1:])
+
+
+def mount_forces(R: ArrayLike, n_mount: int) -> tuple[np.ndarray, np.ndarray]:
+    """``F0`` (N, corners, u) and ``G`` (N, corners, u, u) of module responses ``R`` (N,
+    corners, 1 + u, n): the generalized mount forces (entries 1 .. u: F_z, M_P) at zero
+    mount acceleration and per unit mount acceleration, ``G[u, v]`` = force u per unit v."""
+    R = np.asarray(R)
+    return R[:, :, 0, 1:1 + n_mount], R[:, :, 1:, 1:1 + n_mount].transpose(0, 1, 3, 2)

@@ -22,6 +22,7 @@ from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRo
 from suspopt.models.forces import (AntiRollBarComp, MountMotionComp, SuspensionForceComp,
                                    TyreForceComp, WheelLoadComp)
 from suspopt.models.layout import VehicleLayout
+from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
 from suspopt.models.objective import ObjectiveIntegrandComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
@@ -46,6 +47,7 @@ class VehicleSpec:
     modules: tuple = ()
     fd_form: str = 'forward'
     fd_step: float = 1e-6
+    mount: str = 'ground'
 
     @property
     def chassis_states(self) -> tuple[str, ...]:
@@ -79,18 +81,24 @@ class VehicleODE(om.Group):
         self.add_subsystem('mount', MountMotionComp(a=lay.a, y=lay.y, roll=roll, **kw),
                            promotes=['*'])
         forces = self.add_wheels(nn, spec)
-        chassis = [('chassis_heave', ChassisHeaveComp(M=spec.M, forces=forces, **kw), 'zdd_C'),
-                   ('chassis_pitch', ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **kw),
-                    'thdd_C')]
-        if roll:
-            chassis.append(('chassis_roll', ChassisRollComp(y=lay.y, I_x=spec.I_x,
-                                                            forces=forces, **kw), 'phidd_C'))
-        for name, comp, out in chassis:
-            self.add_subsystem(name, comp, promotes_inputs=list(forces), promotes_outputs=[out])
+        self.add_chassis(nn, spec, forces)
         ins = ['zdd_C', 'thdd_C'] + (['phidd_C'] if roll else []) \
             + [('wheel_z', self.wheel_signal)]
         self.add_subsystem('objective_integrand', ObjectiveIntegrandComp(roll=roll, **kw),
                            promotes_inputs=ins, promotes_outputs=['dJ_dt'])
+
+    def add_chassis(self, nn: int, spec: VehicleSpec, forces: tuple[str, ...]) -> None:
+        """Add the chassis equations (eqs. 5-6, roll) driven by the ``forces`` per corner."""
+        lay = spec.layout
+        kw = {'num_nodes': nn, 'corners': lay.n}
+        chassis = [('chassis_heave', ChassisHeaveComp(M=spec.M, forces=forces, **kw), 'zdd_C'),
+                   ('chassis_pitch', ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **kw),
+                    'thdd_C')]
+        if lay.has_roll:
+            chassis.append(('chassis_roll', ChassisRollComp(y=lay.y, I_x=spec.I_x,
+                                                            forces=forces, **kw), 'phidd_C'))
+        for name, comp, out in chassis:
+            self.add_subsystem(name, comp, promotes_inputs=list(forces), promotes_outputs=[out])
 
     def add_wheels(self, nn: int, spec: VehicleSpec) -> tuple[str, ...]:
         """Add the suspension and wheels; return the names of the forces on the chassis."""
@@ -123,6 +131,13 @@ class LowFidelityODE(VehicleODE):
 class MixedFidelityODE(VehicleODE):
     """Mixed fidelity, paper §3.3: the chassis + one multibody module at every corner.
 
+    With ``spec.mount == 'chassis'`` the modules' frames move with the chassis: the
+    modules take the mount's pose, return their response at zero and per unit mount
+    acceleration, and :class:`~suspopt.models.mount.ChassisMountComp` solves the chassis
+    equations with the linkage's reactions (the loop closed per node), then
+    :class:`~suspopt.models.mount.MountResponseComp` gives ``zdd_W``, the vertical force
+    on the chassis ``F_M`` and the reactions at the solved accelerations.
+
     Kinematics (black box) → tyre force (eq. 13, analytic) → dynamics (black box, eq. 11,
     with the suspension spring-damper inside the mechanism: its rate and damping and the
     chassis mount's motion are inputs, its vertical force on the chassis ``F_S`` of eq. 12
@@ -133,12 +148,23 @@ class MixedFidelityODE(VehicleODE):
     wheel_signal = 'q_W'
 
     def add_wheels(self, nn: int, spec: VehicleSpec) -> tuple[str, ...]:
-        from suspopt.multibody.components import (SuspensionDynamicsComp,
+        from suspopt.multibody.components import (ChassisMountDynamicsComp,
+                                                  SuspensionDynamicsComp,
                                                   SuspensionKinematicsComp)
-        kw = {'num_nodes': nn, 'corners': spec.layout.n}
+        lay = spec.layout
+        kw = {'num_nodes': nn, 'corners': lay.n}
         fd = {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
-        self.add_subsystem('kinematics', SuspensionKinematicsComp(**kw, **fd),
-                           promotes_inputs=['z_W', 'v_W'], promotes_outputs=['q_W', 'qd_W'])
+        chassis = spec.mount == 'chassis'
+        pose = []
+        if chassis:
+            pose = ['z_M', 'v_M']
+            if lay.has_roll:
+                self.add_subsystem('mount_rotation', MountRotationComp(
+                    side=np.array([c.side for c in lay.corners]), **kw), promotes=['*'])
+                pose += ['psi_M', 'w_M']
+        self.add_subsystem('kinematics', SuspensionKinematicsComp(
+            **kw, **fd, mount=spec.mount, roll=lay.has_roll),
+            promotes_inputs=['z_W', 'v_W', *pose], promotes_outputs=['q_W', 'qd_W'])
         bars = self._add_anti_roll(nn, spec, 'q_W')
         self.add_subsystem('tyre', TyreForceComp(k_T=spec.k_T, **kw),
                            promotes_inputs=['delta', ('z_W', 'q_W')], promotes_outputs=['F_T'])
@@ -146,8 +172,32 @@ class MixedFidelityODE(VehicleODE):
         if bars:
             self.add_subsystem('wheel_load', WheelLoadComp(**kw), promotes=['*'])
             wheel_load = 'F_W'
+        if chassis:
+            self.add_subsystem('dynamics', ChassisMountDynamicsComp(**kw, **fd,
+                                                                    roll=lay.has_roll),
+                               promotes_inputs=['z_W', 'v_W', *pose, ('F_T', wheel_load),
+                                                'k_S', 'c_S'],
+                               promotes_outputs=['response', 'F_S'])
+            self._width = self.dynamics.width
+            return ('F_R',) if bars else ()
         self.add_subsystem('dynamics', SuspensionDynamicsComp(**kw, **fd),
                            promotes_inputs=['z_W', 'v_W', 'z_M', 'v_M', ('F_T', wheel_load),
                                             'k_S', 'c_S'],
                            promotes_outputs=['zdd_W', 'F_S', 'reactions'])
         return ('F_S', 'F_R') if bars else ('F_S',)
+
+    def add_chassis(self, nn: int, spec: VehicleSpec, forces: tuple[str, ...]) -> None:
+        if spec.mount != 'chassis':
+            return super().add_chassis(nn, spec, forces)
+        lay = spec.layout
+        roll = lay.has_roll
+        kw = {'num_nodes': nn, 'corners': lay.n, 'a': lay.a, 'y': lay.y, 'roll': roll,
+              'side': np.array([c.side for c in lay.corners], dtype=float),
+              'width': self._width}
+        acc = ['zdd_C', 'thdd_C'] + (['phidd_C'] if roll else [])
+        self.add_subsystem('chassis', ChassisMountComp(M=spec.M, I=spec.I, I_x=spec.I_x,
+                                                       forces=forces, **kw),
+                           promotes_inputs=['response', *forces], promotes_outputs=acc)
+        self.add_subsystem('mount_response', MountResponseComp(**kw),
+                           promotes_inputs=['response', *acc],
+                           promotes_outputs=['zdd_W', 'F_M', 'reactions'])

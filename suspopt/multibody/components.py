@@ -25,6 +25,13 @@ The module is queried in two steps, as one would query a commercial multibody co
 Splitting the query keeps the data flow acyclic (the tyre force depends on the kinematics
 output, the accelerations on the tyre force), so no nonlinear solver is needed around the
 module.
+
+With ``multibody.mount = "chassis"`` the frame moves with the chassis: both queries also
+take the mount's pose (``z_M, v_M`` and, with roll, the frame's rotation ``psi_M, w_M``),
+and :class:`ChassisMountDynamicsComp` replaces the dynamic analysis: it returns the
+module's response (wheel-travel acceleration, the linkage's force and moment on the
+chassis, the joints' reactions) at zero mount acceleration and per unit mount
+acceleration, which :mod:`suspopt.models.mount` combines with the chassis equations.
 """
 from __future__ import annotations
 
@@ -32,7 +39,7 @@ import numpy as np
 import openmdao.api as om
 
 from suspopt.errors import MultibodyError
-from suspopt.multibody.suspension import SuspensionModule
+from suspopt.multibody.suspension import RESPONSE, SuspensionModule
 
 
 class NodewiseBlackBox(om.ExplicitComponent):
@@ -140,22 +147,54 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
 
     OUTPUTS = ('q_W', 'qd_W')
 
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('mount', default='ground', values=('ground', 'chassis'))
+        self.options.declare('roll', types=bool, default=False,
+                             desc='chassis mount: the frames turn with the roll')
+
     def setup(self) -> None:
         shape = (self.options['num_nodes'], self.options['corners'])
         self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
+        self._pose = mount_pose_inputs(self)
         self.add_output('q_W', shape=shape, units='m', desc='wheel vertical displacement')
         self.add_output('qd_W', shape=shape, units='m/s', desc='wheel vertical velocity')
-        self.declare_nodewise_fd({n: 1 for n in self.OUTPUTS}, ['z_W', 'v_W'])
+        self.declare_nodewise_fd({n: 1 for n in self.OUTPUTS}, ['z_W', 'v_W', *self._pose])
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         z, v = values['z_W'], values['v_W']
         out = {n: np.empty_like(z) for n in self.OUTPUTS}
         for mod, cols in self.groups():
-            kin = mod.kinematics(z[:, cols].ravel(), v[:, cols].ravel())
+            kin = mod.kinematics(z[:, cols].ravel(), v[:, cols].ravel(),
+                                 pose=mount_pose(self, values, cols))
             for n in self.OUTPUTS:
                 out[n][:, cols] = getattr(kin, n).reshape(z.shape[0], len(cols))
         return out
+
+
+def mount_pose_inputs(comp: NodewiseBlackBox) -> list[str]:
+    """Add the mount pose inputs of a chassis-mounted module; their names."""
+    if comp.options['mount'] != 'chassis':
+        return []
+    shape = (comp.options['num_nodes'], comp.options['corners'])
+    names = [('z_M', 'm', 'chassis above the corner'), ('v_M', 'm/s', 'its vertical velocity')]
+    if comp.options['roll']:
+        names += [('psi_M', 'rad', 'frame rotation'), ('w_M', 'rad/s', 'its rate')]
+    for name, units, desc in names:
+        comp.add_input(name, shape=shape, units=units, desc=desc)
+    return [n for n, _, _ in names]
+
+
+def mount_pose(comp: NodewiseBlackBox, values: dict[str, np.ndarray], cols: list[int]):
+    """``(z_M, v_M, ψ, ψ̇)`` of the corners ``cols``, flattened (None: ground mount)."""
+    if comp.options['mount'] != 'chassis':
+        return None
+    flat = {k: values[k][:, cols].ravel() for k in ('z_M', 'v_M')}
+    zero = np.zeros_like(flat['z_M'])
+    roll = comp.options['roll']
+    return (flat['z_M'], flat['v_M'], values['psi_M'][:, cols].ravel() if roll else zero,
+            values['w_M'][:, cols].ravel() if roll else zero)
 
 
 class SuspensionDynamicsComp(NodewiseBlackBox):
@@ -208,3 +247,58 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
             F_S[:, cols] = force.reshape(nn, len(cols))
             reactions[:, cols, :reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
         return {'zdd_W': zdd, 'F_S': F_S, 'reactions': reactions}
+
+
+class ChassisMountDynamicsComp(NodewiseBlackBox):
+    """Dynamic analysis of every corner's chassis-mounted module (black box, FD partials).
+
+    Inputs: the wheel-travel state, the mount's pose (``z_M, v_M`` [, ``psi_M, w_M``]),
+    the tyre force ``F_T`` and the settings ``k_S, c_S``. Outputs: ``response`` (nodes,
+    corners, blocks, entries): the entries of
+    :data:`~suspopt.multibody.suspension.RESPONSE` then every joint's reaction (x, z) on
+    its first body (zero-padded to the mechanism with the most joints), in blocks at zero
+    mount acceleration and per unit mount acceleration (vertical of P [, rotation]); and
+    ``F_S``, the spring's vertical force on its chassis end (no acceleration term).
+    """
+
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare('roll', types=bool, default=False,
+                             desc='the frames turn with the roll')
+        self.options.declare('mount', default='chassis', values=('chassis',))
+
+    @property
+    def width(self) -> int:
+        return len(RESPONSE) + 2 * max(m.n_joints for m in self.options['modules'])
+
+    def setup(self) -> None:
+        nn, nc = self.options['num_nodes'], self.options['corners']
+        shape = (nn, nc)
+        self._blocks = 3 if self.options['roll'] else 2
+        self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
+        self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
+        pose = mount_pose_inputs(self)
+        self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
+        self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
+        self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
+        self.add_output('response', shape=(nn, nc, self._blocks, self.width), units=None,
+                        desc='module response (SI units), blocks: a = 0, per unit a')
+        self.add_output('F_S', shape=shape, units='N', desc='spring force on its chassis end')
+        self.declare_nodewise_fd({'response': self._blocks * self.width, 'F_S': 1},
+                                 ['z_W', 'v_W', *pose, 'F_T'], settings=('k_S', 'c_S'))
+
+    def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        z = values['z_W']
+        nn = z.shape[0]
+        resp = np.zeros(z.shape + (self._blocks, self.width))
+        F_S = np.empty_like(z)
+        for mod, cols in self.groups():
+            kin = mod.kinematics(z[:, cols].ravel(), values['v_W'][:, cols].ravel(),
+                                 pose=mount_pose(self, values, cols))
+            R, force = mod.mount_response(kin, np.tile(values['k_S'][cols], nn),
+                                          np.tile(values['c_S'][cols], nn),
+                                          values['F_T'][:, cols].ravel(),
+                                          rotation=self.options['roll'])
+            resp[:, cols, :, :R.shape[2]] = R.reshape(nn, len(cols), self._blocks, -1)
+            F_S[:, cols] = force.reshape(nn, len(cols))
+        return {'response': resp, 'F_S': F_S}

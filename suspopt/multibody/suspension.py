@@ -13,8 +13,33 @@ the chassis mount's vertical motion ``z_M`` (``v_M``) shortens the spring by ``e
 the spring's tension is ``f = k (ℓ - ℓ0 + e_z z_M) + c (ℓ̇ + e_z v_M)``, ``ℓ`` its length in
 the linkage, and the chassis receives its vertical component ``F_S = -f e_z`` (up). For a
 vertical spring (the double wishbones) this is exactly eq. 12,
-``F_S = k (q^z_U - z_M) + c (q̇^z_U - v_M)``. The frame stays fixed to the ground (the
-paper's coupling, SPEC §3).
+``F_S = k (q^z_U - z_M) + c (q̇^z_U - v_M)``. With ``mount = 'ground'`` the frame stays
+fixed to the ground (the paper's coupling, SPEC §3).
+
+With ``mount = 'chassis'`` the frame is the chassis at this corner: the mechanism's one
+fixed body becomes a prescribed body (a rheonomic joint, :mod:`~suspopt.multibody.elements
+.prescribed`) whose pose follows the chassis. In the front view the chassis point ``P``
+at the wheel marker's reference position moves vertically by ``z_M`` (heave, pitch and
+roll above the corner) and the frame turns about it by ``ψ`` (``±φ_C`` of the full car's
+roll: ``+`` on a left corner, ``-`` on a right one, because the planar model's x points
+outboard; 0 on the half car). The ride model has no heights and no lateral motion, so the
+roll axis is taken at ``P``'s height and ``P`` does not move sideways. The spring then acts
+between two moving bodies and needs no preload. What the chassis receives is everything
+the linkage applies on the frame, by Newton-Euler on the frame, ``M_F q̈_F - R_mount``
+(the frame's own inertia cancels: the frame belongs to the chassis, whose mass and
+inertia already count it): the chassis-side joints' reactions and the spring's force on
+its chassis end, as a force ``(F_x, F_z)`` and a moment ``M_P`` about ``P``. They are the
+tyre force minus the linkage's ``Σ m_i a_i`` (gravity ignored). The chassis' generalized
+forces follow from power: ``F_z`` on the vertical motion of ``P`` and ``±M_P`` on roll.
+
+Those reactions depend on the mount's acceleration, which the chassis equations give:
+an algebraic loop at every node. The augmented system is linear in ``γ`` and ``γ`` is
+affine in the frame's acceleration, so :meth:`SuspensionModule.mount_response` answers
+one query with the response at zero mount acceleration (velocity terms included) and the
+response to a unit mount acceleration of each mount coordinate (the linkage's inertia as
+the mount feels it; one batched solve with 2 or 3 right-hand sides sharing a matrix).
+The chassis equations then solve the loop per node in closed form
+(:func:`suspopt.models.equations.chassis_mount_accelerations`).
 
 Both the black-box OpenMDAO components and the time-marching integrator call these two
 methods, so both integrate one model.
@@ -23,13 +48,24 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from suspopt.errors import ConfigError
-from suspopt.multibody.mechanism import Mechanism, load_mechanism
+from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
+from suspopt.multibody.elements.base import cross, rot_apply
+from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
 from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver
+
+MOUNTS = ('ground', 'chassis')
+#: the entries of a chassis-mounted module's response (:meth:`SuspensionModule.
+#: mount_response`), then the reaction (x, z) of every mechanism joint on its first body
+RESPONSE = ('zdd_W', 'F_z', 'M_P', 'F_x')
+#: index in :data:`RESPONSE` of the generalized force of each mount coordinate (vertical
+#: motion of P, rotation about P)
+MOUNT_FORCES = (1, 2)
 
 
 @dataclass
@@ -39,6 +75,29 @@ class ModuleKinematics:
     q_W: np.ndarray
     qd_W: np.ndarray
     state: MultibodyState
+    #: chassis mount: the pose it was analysed at, ``(z_M, v_M, ψ, ψ̇)`` each (N,)
+    pose: tuple[np.ndarray, ...] | None = None
+
+
+def chassis_mounted(mechanism: Mechanism) -> tuple[Mechanism, str, str]:
+    """The mechanism with its frame (its one fixed body) driven by a prescribed joint
+    instead of welded to the ground: (mechanism, frame body, mount joint name)."""
+    frames = [b for b in mechanism.bodies if b.fixed]
+    on_ground = [j.name for j in mechanism.joints if GROUND in j.bodies]
+    on_ground += [m.name for m in mechanism.markers if m.body == GROUND]
+    if len(frames) != 1 or on_ground:
+        raise ConfigError(f'{mechanism.name}: multibody.mount = "chassis" needs every '
+                          'chassis-side part on one frame body (fixed = true) and nothing on '
+                          f'the ground; it has fixed bodies {[b.name for b in frames]} and '
+                          f'ground joints or markers {on_ground}')
+    frame = frames[0].name
+    names = {j.name for j in mechanism.joints}
+    joint = next(n for n in (f'{frame} mount', f'{frame} mount (chassis)') if n not in names)
+    bodies = tuple(dataclasses.replace(b, fixed=False) if b.name == frame else b
+                   for b in mechanism.bodies)
+    return (dataclasses.replace(mechanism, bodies=bodies,
+                                joints=mechanism.joints + (PrescribedJoint(joint, frame),)),
+            frame, joint)
 
 
 class SuspensionModule:
@@ -60,9 +119,17 @@ class SuspensionModule:
     #: vertical, 99.995 % of the 0.33 m arm length)
     max_sensitivity = 100.0
 
-    def __init__(self, mechanism: Mechanism | str, newton_tol: float = 1e-13):
+    def __init__(self, mechanism: Mechanism | str, newton_tol: float = 1e-13,
+                 mount: str = 'ground'):
         if isinstance(mechanism, str):
             mechanism = load_mechanism(mechanism, suspension=True)
+        if mount not in MOUNTS:
+            raise ValueError(f'mount must be one of {MOUNTS}, got {mount!r}')
+        self.mount = mount
+        fixed_names = {b.name for b in mechanism.bodies if b.fixed}
+        self.n_joints = len(mechanism.joints)  # the mechanism's own (reported) joints
+        if mount == 'chassis':
+            mechanism, self.frame, self.mount_joint = chassis_mounted(mechanism)
         self.mechanism = mechanism
         self.solver = s = PlanarMultibodySolver(mechanism, newton_tol=newton_tol)
         roles = mechanism.roles
@@ -70,15 +137,21 @@ class SuspensionModule:
         self.wheel = s.marker_names.index(roles['wheel_marker'])
         self.tyre_load = s.load_names.index(roles['tyre_load'])
         ends = s.spring(self.spring_name, s.q0[None]).bodies
-        fixed = {mechanism.body_index(b.name) for b in mechanism.bodies if b.fixed}
-        chassis = [i for i, b in enumerate(ends)
-                   if b == 'ground' or (b != 'ground' and mechanism.body_index(b) in fixed)]
+        chassis = [i for i, b in enumerate(ends) if b == GROUND or b in fixed_names]
         if len(chassis) != 1:  # the reader refuses such files; a Mechanism built in Python
             raise ConfigError(f'{mechanism.name}: the suspension spring {self.spring_name!r} '
                               f'must connect the chassis side to the linkage (ends {ends})')
         self.chassis_end = chassis[0]
         self.marker_ref = s.marker_reference()
         self.ind0 = s.q0[s.ind[0]]
+        if mount == 'chassis':
+            f = s.body_names.index(self.frame)
+            self._frame = slice(3 * f, 3 * f + 3)
+            self._frame_mass = s.mass_diag[self._frame]
+            self._mount_k = s.joint_names.index(self.mount_joint)
+            #: P, the frame point that follows z_M: the wheel marker's reference position
+            self.mount_point = self.marker_ref[self.wheel].copy()
+            self._arm = s.q0[self._frame][:2] - self.mount_point  # frame CG from P
         self.time_s = 0.0  # wall time spent inside this module (benchmarks)
         self.reused = 0  # queries answered from a remembered analysis
         self._poses: OrderedDict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = \
@@ -91,15 +164,16 @@ class SuspensionModule:
         while len(memory) > size:
             memory.popitem(last=False)
 
-    def _pose(self, z_W: np.ndarray, guess: np.ndarray | None):
-        """Position analysis at wheel travels ``z_W``: (q, C_q, marker positions)."""
-        key = z_W.tobytes()
+    def _pose(self, z_W: np.ndarray, guess: np.ndarray | None, mount=None, motion=None):
+        """Position analysis at wheel travels ``z_W`` (and mount poses): (q, C_q, marker
+        positions)."""
+        key = z_W.tobytes() + b''.join(m.tobytes() for m in (mount or ())[::2])
         pose = self._poses.get(key)
         if pose is not None:
             self.reused += 1
             return pose
         s = self.solver
-        q = s.positions(z_W[:, None] + self.ind0, guess)
+        q = s.positions(z_W[:, None] + self.ind0, guess, motion)
         Cq = s.constraint_jacobian(q)
         pose = (q, Cq, s.marker_positions(q) - self.marker_ref)
         for a in pose:
@@ -108,32 +182,73 @@ class SuspensionModule:
         return pose
 
     def kinematics(self, z_W: np.ndarray, v_W: np.ndarray,
-                   guess: np.ndarray | None = None) -> ModuleKinematics:
+                   guess: np.ndarray | None = None,
+                   pose: tuple[np.ndarray, ...] | None = None) -> ModuleKinematics:
         """Position and velocity analysis at N wheel-travel states (arrays of shape (N,));
-        ``guess``: body coordinates (N, n) to start the position analysis from."""
+        ``guess``: body coordinates (N, n) to start the position analysis from.
+
+        ``z_W`` drives the independent coordinate (the wheel's global vertical position
+        from its reference). A chassis-mounted module also needs the mount's ``pose``
+        ``(z_M, v_M, ψ, ψ̇)`` (each (N,); ψ and ψ̇ may be scalars 0)."""
         t0 = time.perf_counter()
         z_W = np.ascontiguousarray(z_W, dtype=float)
         v_W = np.ascontiguousarray(v_W, dtype=float)
-        key = z_W.tobytes() + v_W.tobytes()
+        if (pose is not None) != (self.mount == 'chassis'):
+            raise ValueError(f'{self.mechanism.name}: a {self.mount}-mounted module '
+                             + ('needs the mount pose' if pose is None else
+                                'takes no mount pose'))
+        if pose is not None:
+            pose = tuple(np.ascontiguousarray(np.broadcast_to(p, z_W.shape), dtype=float)
+                         for p in pose)
+        key = z_W.tobytes() + v_W.tobytes() + b''.join(p.tobytes() for p in pose or ())
         try:
             kin = self._states.get(key)
             if kin is not None:
                 self.reused += 1
             else:
                 s = self.solver
-                q, Cq, pos = self._pose(z_W, guess)
-                qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity)
+                motion = None if pose is None else self.mount_motion(pose)
+                q, Cq, pos = self._pose(z_W, guess, pose, motion)
+                qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity,
+                                  motion=motion)
                 qd.flags.writeable = False
                 vel = s.marker_velocities(q, qd)
                 kin = ModuleKinematics(q_W=pos[:, self.wheel, 1], qd_W=vel[:, self.wheel, 1],
-                                       state=MultibodyState(q=q, qd=qd, Cq=Cq))
+                                       state=MultibodyState(q=q, qd=qd, Cq=Cq), pose=pose)
                 self._remember(self._states, key, kin, self.memory)
         finally:
             self.time_s += time.perf_counter() - t0
         # a fresh state object: dynamics() attaches accelerations and multipliers to it
         st = kin.state
         return ModuleKinematics(q_W=kin.q_W, qd_W=kin.qd_W,
-                                state=MultibodyState(q=st.q, qd=st.qd, Cq=st.Cq))
+                                state=MultibodyState(q=st.q, qd=st.qd, Cq=st.Cq),
+                                pose=kin.pose)
+
+    def mount_motion(self, pose: tuple[np.ndarray, ...],
+                     acceleration: np.ndarray | None = None) -> dict[str, PrescribedMotion]:
+        """The frame's prescribed motion for mount poses ``(z_M, v_M, ψ, ψ̇)`` (each (N,)):
+        ``P`` up by ``z_M``, the frame turned by ``ψ`` about it. ``acceleration``: the
+        frame CG's (N, 3), default the velocity term only (zero mount acceleration,
+        :meth:`frame_accelerations`)."""
+        z_M, v_M, psi, w = pose
+        Ar = rot_apply(psi, self._arm)
+        offset = np.stack([Ar[:, 0] - self._arm[0], z_M + Ar[:, 1] - self._arm[1], psi], -1)
+        vel = np.stack([-w * Ar[:, 1], v_M + w * Ar[:, 0], w], -1)
+        if acceleration is None:
+            acceleration = self.frame_accelerations(pose)[0]
+        return {self.mount_joint: PrescribedMotion(offset, vel, acceleration)}
+
+    def frame_accelerations(self, pose: tuple[np.ndarray, ...]) -> np.ndarray:
+        """The frame CG's acceleration (x, z, φ) at zero mount acceleration (the turning
+        frame's centripetal term ``-ψ̇² A(ψ) r``), then per unit vertical acceleration of
+        ``P`` and per unit angular acceleration ψ̈: (3, N, 3)."""
+        _, _, psi, w = pose
+        Ar = rot_apply(psi, self._arm)
+        out = np.zeros((3, psi.shape[0], 3))
+        out[0, :, :2] = -(w**2)[:, None] * Ar
+        out[1, :, 1] = 1.0
+        out[2, :, 0], out[2, :, 1], out[2, :, 2] = -Ar[:, 1], Ar[:, 0], 1.0
+        return out
 
     def spring_params(self, state: MultibodyState, z_M, v_M, k_S, c_S) -> dict:
         """The spring's run-time values: rate, damping, and the preload
@@ -155,6 +270,9 @@ class SuspensionModule:
         damping ``c_S``, chassis mount at ``z_M``, ``v_M``) and ``+F_T`` on the contact
         patch: wheel-travel acceleration (N,), the spring's vertical force on the chassis
         ``F_S`` (N,) and the joint reactions (N, nj, 2)."""
+        if self.mount != 'ground':
+            raise ValueError(f'{self.mechanism.name}: dynamics() is the ground mount\'s '
+                             'query; a chassis-mounted module answers mount_response()')
         t0 = time.perf_counter()
         s = self.solver
         try:
@@ -169,6 +287,64 @@ class SuspensionModule:
             self.time_s += time.perf_counter() - t0
         return state.qdd[:, s.ind[0]], F_S, s.joint_reactions(state.lam, state.q)
 
-    def constraint_residual(self, state: MultibodyState) -> float:
-        """Largest position-constraint violation ``max |C(q)|`` over the states [m]."""
-        return float(np.max(np.abs(self.solver.constraints(state.q)), initial=0.0))
+    def mount_response(self, kin: ModuleKinematics, k_S: np.ndarray, c_S: np.ndarray,
+                       F_T: np.ndarray, rotation: bool = False,
+                       acceleration: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """Chassis mount: what the linkage applies on the chassis at N states analysed by
+        :meth:`kinematics`, under the spring (``k_S``, ``c_S``) and ``+F_T`` on the contact
+        patch.
+
+        Returns ``R`` (N, B, n_r), each row the entries :data:`RESPONSE` (wheel-travel
+        acceleration, the force ``F_z``, the moment ``M_P`` about P and the force ``F_x`` of
+        the linkage on the chassis) then every mechanism joint's reaction (x, z) on its
+        first body; and ``F_S`` (N,), the spring's vertical force on its chassis end.
+
+        Without ``acceleration`` the B blocks are the response at zero mount acceleration,
+        then the response per unit vertical acceleration of P (and, with ``rotation``, per
+        unit ψ̈): the response at mount accelerations ``a`` is ``R_0 + Σ_u a_u R_u``
+        exactly. With ``acceleration`` (N, 2) = (vertical, angular) of the mount, B = 1:
+        the response at that acceleration itself."""
+        t0 = time.perf_counter()
+        s, state, pose = self.solver, kin.state, kin.pose
+        try:
+            N = state.q.shape[0]
+            loads = np.zeros((N, len(s.load_names)))
+            loads[:, self.tyre_load] = F_T
+            params = {self.spring_name: {'stiffness': k_S, 'damping': c_S}}
+            Q = s.generalized_forces(state.q, loads, state.qd, params)
+            frame = self.frame_accelerations(pose)
+            if acceleration is not None:
+                a = np.asarray(acceleration, dtype=float).reshape(N, 2)
+                acc = frame[0] + a[:, :1] * frame[1] + a[:, 1:] * frame[2]
+                blocks, qd, Qb = 1, state.qd, Q
+            else:
+                blocks = 3 if rotation else 2
+                acc = frame[:blocks].reshape(blocks * N, 3)
+                zeros = np.zeros(((blocks - 1) * N, s.n))
+                qd, Qb = np.concatenate([state.qd, zeros]), np.concatenate([Q, zeros])
+            tile = (lambda x: np.concatenate([x] * blocks)) if blocks > 1 else (lambda x: x)
+            q, Cq = tile(state.q), tile(state.Cq)
+            motion = self.mount_motion(tuple(tile(p) for p in pose), acc)
+            qdd, lam = s.solve_augmented(q, qd, Qb, Cq=Cq, motion=motion)
+            R = s.reactions(q, lam)
+            # Newton-Euler on the frame: all the linkage applies on it (its drive aside)
+            on_frame = self._frame_mass * qdd[:, self._frame] - R[:, self._mount_k, 0]
+            P = np.stack([np.full(q.shape[0], self.mount_point[0]),
+                          self.mount_point[1] + tile(pose[0])], -1)
+            M_P = on_frame[:, 2] + cross(q[:, self._frame][:, :2] - P, on_frame[:, :2])
+            out = np.concatenate([np.stack([qdd[:, s.ind[0]], on_frame[:, 1], M_P,
+                                            on_frame[:, 0]], -1),
+                                  R[:, :self.n_joints, 0, :2].reshape(q.shape[0], -1)], -1)
+            sp = s.spring(self.spring_name, state.q, state.qd, params)
+            F_S = -sp.force * sp.direction[:, 1 - self.chassis_end, 1]
+        finally:
+            self.time_s += time.perf_counter() - t0
+        return out.reshape(blocks, N, -1).transpose(1, 0, 2), F_S
+
+    def constraint_residual(self, state: MultibodyState,
+                            pose: tuple[np.ndarray, ...] | None = None) -> float:
+        """Largest position-constraint violation ``max |C(q)|`` over the states [m]
+        (chassis mount: at the mount ``pose`` the states were analysed at)."""
+        motion = None if pose is None else self.mount_motion(pose)
+        return float(np.max(np.abs(self.solver.constraints(state.q, motion)), initial=0.0))

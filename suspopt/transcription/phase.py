@@ -29,6 +29,8 @@ def timeseries_names(spec: VehicleSpec, fidelity: str) -> tuple[str, ...]:
     chassis = ('zdd_C', 'thdd_C') + (('phidd_C',) if spec.layout.has_roll else ())
     forces = ('zdd_W', 'F_S', 'F_T', 'delta', 'z_M') + (('F_R',) if spec.bars[0] else ())
     mixed = ('q_W', 'reactions') if fidelity == 'mixed' else ()
+    if fidelity == 'mixed' and spec.mount == 'chassis':
+        mixed += ('F_M',)
     return chassis + forces + mixed
 
 
@@ -53,7 +55,7 @@ def vehicle_spec(config: StudyConfig, scenario: Scenario, fidelity: str,
         k_T=np.array([axles[c.axle].tyre_stiffness for c in lay.corners]),
         design=config.design_names(), bars=bars, tracks=tracks, speed=float(scenario.speed),
         modules=corner_modules, fd_form=config.multibody.fd_form,
-        fd_step=config.multibody.fd_step)
+        fd_step=config.multibody.fd_step, mount=config.multibody.mount)
 
 
 def build_phase(spec: VehicleSpec, fidelity: str, scenario: Scenario) -> dm.Phase:
