@@ -4,6 +4,7 @@
     suspopt optimize  --fidelity low|mixed [--start DESIGN] [--out DIR] ...
     suspopt evaluate  --fidelity low|mixed [--design DESIGN] [--method ...]
     suspopt pareto    [--fidelity low|mixed] [--points N] [--out DIR] ...   comfort vs road holding
+    suspopt compare   [--mechanisms A,B,C] [--out DIR] ...  suspension topologies side by side
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
     suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
@@ -301,6 +302,39 @@ def cmd_pareto(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_compare(args: argparse.Namespace) -> int:
+    """The topology study (suspopt.compare): every topology's mixed-fidelity optimum, the
+    cross table of every optimum in every model, kinematic curves."""
+    from suspopt.compare import exit_code, parse_topologies, run_compare, topology_config
+    from suspopt.results import RunDirectory
+    from suspopt.study import StepFailed
+    config = _config(args)
+    for front, rear in parse_topologies(args.mechanisms):  # bad input before any work
+        topology_config(config, front, rear)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'topology study of {args.mechanisms}; results in {out.path}')
+        try:
+            data = run_compare(config, out, args.mechanisms, progress=progress, log=log,
+                               verify=not args.no_verify)
+        except StepFailed as err:
+            print(f'suspopt: error: {err}; no topology can start from it; partial results '
+                  f'in {out.path}', file=sys.stderr)
+            return 1
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/compare.json, table.md, figures/ ({data['wall_time_s']:.1f} s)")
+    code = exit_code(data)
+    if code == 1:
+        for f in data['failures']:
+            where = f['model'] + (f" at {f['design']}" if f.get('design') else '')
+            print(f"suspopt: error: {f['what']} failed in {where}: {f['status']} "
+                  f"{f.get('message', '')}".rstrip() + '; the other results are kept',
+                  file=sys.stderr)
+    elif code == NotVerified.exit_code:
+        print(f"suspopt: error: {data['warnings'][-1]}", file=sys.stderr)
+    return code
+
+
 def cmd_robust(args: argparse.Namespace) -> int:
     from suspopt.results import RunDirectory
     from suspopt import report
@@ -460,6 +494,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help='comfort shares 0 ... 1 (default: %(default)s)')
     run_opts(p, 'results/pareto')
     p.set_defaults(func=cmd_pareto)
+
+    p = sub.add_parser('compare', help='suspension topologies side by side: each one\'s '
+                                       'mixed-fidelity optimum, every optimum in every model',
+                       epilog=EPILOG)
+    p.add_argument('--mechanisms', default='double_wishbone,sla_double_wishbone,macpherson',
+                   metavar='A,B,...',
+                   help='topologies: built-in names or mechanism TOML paths (relative to '
+                        'the working directory), each on both axles, or FRONT+REAR (default: '
+                        '%(default)s)')
+    common(p)
+    run_opts(p, 'results/compare')
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser('robust', help='robust design over the study file\'s scenarios: the '
                                       'robust optimum against each scenario\'s own',

@@ -514,11 +514,15 @@ def _read(path: Path) -> dict[str, Any]:
 
 def render(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a (possibly partial) study directory, or of
-    an optimize or Pareto directory. A damaged or incomplete one is a ConfigError."""
+    an optimize, Pareto, robust, coupling or topology-study (``compare.json``) directory. A
+    damaged or incomplete one is a ConfigError."""
     out = Path(out_dir)
     if not out.is_dir():
         raise ConfigError(f'{out}: not a directory')
     try:
+        if not (out / 'study.json').exists() and (out / 'compare.json').exists():
+            from suspopt.compare_report import render_compare  # a topology study
+            return render_compare(out)
         if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
             return render_pareto(out)
         if not (out / 'study.json').exists() and (out / 'robust.json').exists():
