@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _common import fresh_cache, git_revision, machine, stats, table, timed_optimize  # noqa: E402
+from _common import fresh_cache, git_revision, machine, table, timed_optimize  # noqa: E402
 
 from suspopt.config import StudyConfig  # noqa: E402
 

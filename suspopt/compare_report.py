@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from suspopt.figures import corner_labels, plot_set, road_figure
 from suspopt.models.objective import term_units
 from suspopt.results import read_json, read_trajectory, write_text
 
@@ -243,16 +244,14 @@ def render_compare(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and ``figures/`` of a topology-study directory."""
     import matplotlib
     matplotlib.use('Agg')
-    import matplotlib.pyplot as plt  # noqa: F401 (backend set before report's imports)
     import openmdao.api as om
 
-    from suspopt.report import _labels, _plot_set, _road_figure
     out = Path(out_dir)
     data = read_json(out / 'compare.json')
     write_text(out / 'table.md', compare_markdown(data))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', _road_figure(figs / 'road.png', out, data['config'])]
+    written = [out / 'table.md', road_figure(figs / 'road.png', out, data['config'])]
     if (data.get('kinematics') or {}).get('curves'):
         written.append(_kinematics_figure(figs / 'kinematics.png', data['kinematics']))
     if data.get('cells'):
@@ -269,7 +268,7 @@ def render_compare(out_dir: str | Path) -> list[Path]:
             if tr is not None:
                 curves.append((label, tr, style))
     if curves:
-        written.append(_plot_set(figs / 'trajectories.png',
+        written.append(plot_set(figs / 'trajectories.png',
                                  'Every topology at its own optimum (collocation)', curves,
-                                 data['terms'], _labels(out, data['config'])))
+                                 data['terms'], corner_labels(out, data['config'])))
     return written

@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from suspopt.config import StudyConfig
-from suspopt.results import RunDirectory, write_json
+from suspopt.results import (COUPLING_DESIGN_LABELS, COUPLING_DESIGNS, COUPLING_MODEL_LABELS,
+                             RunDirectory, write_json)
 from suspopt.study import (Progress, StepFailed, evaluate, optimize, resolve_scales,
                            verified)
 from suspopt.transcription.problem import VehicleProblem
@@ -26,14 +27,9 @@ from suspopt.transcription.problem import VehicleProblem
 #: the three models: (fidelity, mount)
 MODELS = {'low': ('low', 'ground'), 'ground': ('mixed', 'ground'),
           'chassis': ('mixed', 'chassis')}
-MODEL_LABELS = {'low': 'half car', 'ground': 'multibody, ground mount (paper)',
-                'chassis': 'multibody, chassis mount'}
-#: the four designs and the model whose optimum each is (initial: none)
-DESIGNS = {'initial': None, 'low_optimum': 'low', 'ground_optimum': 'ground',
-           'chassis_optimum': 'chassis'}
-DESIGN_LABELS = {'initial': 'Initial guess', 'low_optimum': 'Low-fidelity optimum',
-                 'ground_optimum': 'Paper-coupling optimum (ground mount)',
-                 'chassis_optimum': 'Consistent-coupling optimum (chassis mount)'}
+#: labels and the four designs (with the model whose optimum each is): see suspopt.results
+MODEL_LABELS, DESIGNS, DESIGN_LABELS = (COUPLING_MODEL_LABELS, COUPLING_DESIGNS,
+                                        COUPLING_DESIGN_LABELS)
 
 
 def model_config(config: StudyConfig, model: str) -> StudyConfig:

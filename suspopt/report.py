@@ -27,17 +27,15 @@ import numpy as np
 
 from suspopt.errors import ConfigError
 from suspopt.models.objective import term_units
-from suspopt.results import (STUDY_DESIGNS, read_json, read_trajectory, resolve_inputs,
-                             write_text)
-from suspopt.trajectory import Trajectory
+from suspopt.results import (COUPLING_DESIGN_LABELS, COUPLING_DESIGNS, COUPLING_MODEL_LABELS,
+                             STUDY_DESIGNS, read_json, read_trajectory, write_text)
+from suspopt.figures import (corner_labels, panel_figure, panel_specs, plot_curves, plot_set,
+                             road_figure)
 
 DESIGN_LABELS = dict(zip(STUDY_DESIGNS, ('Initial guess', 'Low-fidelity optimum',
                                          'Mixed-fidelity optimum')))
 FIDELITY_LABELS = {'low': 'low-fidelity', 'mixed': 'mixed-fidelity (multibody)'}
-CHASSIS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
-           ('thdd_C', r'$\ddot\theta_C$ [rad/s$^2$]', 'chassis pitch acceleration'),
-           ('phidd_C', r'$\ddot\varphi_C$ [rad/s$^2$]', 'chassis roll acceleration'))
-AXLE_NAMES = {'1': 'front', '2': 'rear'}
+
 
 
 def _fmt(x: float | None, digits: int = 4) -> str:
@@ -286,113 +284,6 @@ def render_robust(out_dir: str | Path) -> list[Path]:
 
 
 # ---------------------------------------------------------------------------- figures
-def _panels(terms: list[str]) -> list[tuple[str, str, str]]:
-    """(signal, y label, title) of every panel: chassis accelerations, then the wheels of
-    each axle (one panel per axle, its corners as curves)."""
-    roll = 'roll' in terms
-    out = [c for c in CHASSIS if roll or c[0] != 'phidd_C']
-    axles = sorted({t.split('_')[1][0] for t in terms if t.startswith('wheel_')})
-    out += [(f'wheel_{a}', r'$z_W$ [m]', f'{AXLE_NAMES[a]} wheel travel') for a in axles]
-    return out
-
-
-def _figure(title: str, panels):
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    ncol = 2
-    nrow = (len(panels) + 1) // 2
-    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 3.4 * nrow), sharex=True,
-                             constrained_layout=True, squeeze=False)
-    fig.suptitle(title)
-    for ax, (_, ylabel, desc) in zip(axes.flat, panels):
-        ax.set_ylabel(ylabel)
-        ax.set_title(desc, fontsize=10)
-        ax.grid(alpha=0.3)
-    for ax in axes.flat[len(panels):]:
-        ax.set_visible(False)
-    for ax in axes[-1]:
-        ax.set_xlabel('time t [s]')
-    return fig, list(axes.flat)
-
-
-def _curves(ax, key: str, tr_t, values: dict[str, np.ndarray], labels: list[str], label: str,
-            style: dict, marker: bool = False):
-    if key.startswith('wheel_'):
-        axle = key.split('_')[1]
-        z = np.asarray(values['wheel_z'])
-        for c, lab in enumerate(labels):
-            if lab[0] == axle:
-                st = dict(style, ls=style.get('ls', '-') if len(lab) == 1 or lab.endswith('L')
-                          else ':')
-                kw = {'label': f'{label} ({lab})' if len(lab) > 1 else label}
-                if marker:
-                    ax.plot(tr_t[::3], z[::3, c], 'o', ms=2.2, alpha=0.7,
-                            color=style.get('color'), **kw)
-                else:
-                    ax.plot(tr_t, z[:, c], **st, **kw)
-    elif key in values:
-        if marker:
-            ax.plot(tr_t[::3], np.asarray(values[key])[::3], 'o', ms=2.2, alpha=0.7,
-                    color=style.get('color'), label=label)
-        else:
-            ax.plot(tr_t, values[key], label=label, **style)
-
-
-def _plot_set(path: Path, title: str, curves: list[tuple[str, Trajectory, dict]],
-              terms: list[str], labels: list[str]) -> Path:
-    import matplotlib.pyplot as plt
-    panels = _panels(terms)
-    fig, axes = _figure(title, panels)
-    for label, tr, style in curves:
-        for ax, (key, _, _) in zip(axes, panels):
-            _curves(ax, key, tr.t, tr.values, labels, label, style)
-    axes[0].legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
-def _setting(out: Path, config_dict: dict[str, Any]):
-    """The car's corners and the first scenario's roads, speed and horizon, from the
-    study description of a results directory (its kept input copies; not validated)."""
-    from suspopt.models.layout import full_car, half_car
-    from suspopt.road import road_tracks
-    cfg = resolve_inputs(out, config_dict)
-    v, man = cfg['vehicle'], cfg['maneuver']
-    a1, a2 = float(v['front']['axle_position']), float(v['rear']['axle_position'])
-    lay = (full_car(a1, a2, float(v['front']['track']), float(v['rear']['track']))
-           if v['model'] == 'full_car' else half_car(a1, a2))
-    sc = (cfg.get('scenario') or [{}])[0]
-    road = sc.get('road') or cfg['road']
-    return (lay, road_tracks(road, lay.n_tracks, lay.track_separation()),
-            float(sc.get('speed') or man['speed']), float(sc.get('horizon') or man['horizon']),
-            road.get('profile'))
-
-
-def _road_figure(path: Path, out: Path, config_dict: dict[str, Any]) -> Path:
-    """Road displacement under every wheel over the horizon (paper Figure 3)."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    lay, tracks, speed, horizon, profile = _setting(out, config_dict)
-    t = np.linspace(0.0, horizon, 2001)
-    fig, ax = plt.subplots(figsize=(8, 3.5), constrained_layout=True)
-    for c, (corner, off) in enumerate(zip(lay.corners, lay.offsets())):
-        h = tracks[corner.track].r(speed * t - off)
-        ax.plot(t, h * 1e3, ls='-' if corner.axle == 0 else '--',
-                label=rf'wheel {corner.label} $\delta_{{{corner.label}}}(t)$')
-    ax.set_xlabel('time t [s]')
-    ax.set_ylabel('road displacement [mm]')
-    ax.set_title(f"Road input ({profile}, v = {speed:g} m/s) — paper Fig. 3")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
 def _convergence_figure(path: Path, runs: dict[str, dict[str, Any]]) -> Path:
     """Objective and constraint violation per IPOPT iteration of each run (by fidelity)."""
     import matplotlib
@@ -418,10 +309,6 @@ def _convergence_figure(path: Path, runs: dict[str, dict[str, Any]]) -> Path:
     return path
 
 
-def _labels(out: Path, config_dict: dict[str, Any]) -> list[str]:
-    return list(_setting(out, config_dict)[0].labels)
-
-
 def render_run(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a ``suspopt optimize`` directory from its
     ``result.json`` and case recorder ``cases.sql``."""
@@ -433,16 +320,16 @@ def render_run(out_dir: str | Path) -> list[Path]:
     written = [out / 'table.md']
     fid = res['fidelity']
     if res.get('config'):
-        written.append(_road_figure(figs / 'road.png', out, res['config']))
+        written.append(road_figure(figs / 'road.png', out, res['config']))
         tr = read_trajectory(out / 'cases.sql', f'{fid}_optimum') \
             if (out / 'cases.sql').exists() and res.get('success') else None
         if tr is not None:  # only a converged result's trajectory
             terms = list(res.get('terms') or {})
-            written.append(_plot_set(figs / 'trajectories.png',
+            written.append(plot_set(figs / 'trajectories.png',
                                      f'The {FIDELITY_LABELS[fid]} model at the design found',
                                      [(f'{fid} fidelity', tr, {'color': 'tab:blue' if fid == 'low'
                                                                else 'tab:red', 'lw': 1.2})],
-                                     terms, _labels(out, res['config'])))
+                                     terms, corner_labels(out, res['config'])))
     if res.get('history'):
         written.append(_convergence_figure(figs / 'convergence.png', {fid: res}))
     return written
@@ -549,8 +436,8 @@ def render_study(out: Path) -> list[Path]:
     write_text(out / 'table.md', table_markdown(study))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', _road_figure(figs / 'road.png', out, study['config'])]
-    terms, labels = study['terms'], _labels(out, study['config'])
+    written = [out / 'table.md', road_figure(figs / 'road.png', out, study['config'])]
+    terms, labels = study['terms'], corner_labels(out, study['config'])
 
     import openmdao.api as om
 
@@ -572,13 +459,13 @@ def render_study(out: Path) -> list[Path]:
     low_style = {'color': 'tab:blue', 'lw': 1.3}
     mixed_style = {'color': 'tab:red', 'lw': 1.1, 'ls': '--'}
     if ('low', 'initial') in traj and ('mixed', 'initial') in traj:
-        written.append(_plot_set(
+        written.append(plot_set(
             figs / 'initial_design.png',
             'Initial design: low- vs mixed-fidelity model — paper Fig. 4',
             [('low fidelity', traj['low', 'initial'], low_style),
              ('mixed fidelity', traj['mixed', 'initial'], mixed_style)], terms, labels))
     if ('low', 'low_optimum') in traj and ('mixed', 'mixed_optimum') in traj:
-        written.append(_plot_set(
+        written.append(plot_set(
             figs / 'optima.png',
             'Optimal designs: low-fidelity optimum (low-fidelity model) vs mixed-fidelity '
             'optimum (multibody) — paper Fig. 5',
@@ -591,7 +478,7 @@ def render_study(out: Path) -> list[Path]:
                   (('initial', {'color': 'gray', 'lw': 1.0}),
                    ('low_optimum', low_style), ('mixed_optimum', mixed_style))
                   if ('mixed', n) in traj]
-        written.append(_plot_set(figs / 'cross_evaluation.png',
+        written.append(plot_set(figs / 'cross_evaluation.png',
                                  'All three designs in the mixed-fidelity (multibody) model',
                                  curves, terms, labels))
     tm_path = out / 'time_marching.npz'
@@ -600,8 +487,8 @@ def render_study(out: Path) -> list[Path]:
             data = np.load(tm_path)
         except Exception as err:  # numpy's and zipfile's errors of a damaged file
             raise ConfigError(f'{tm_path}: damaged ({err})') from None
-        panels = _panels(terms)
-        fig, axes = _figure('Collocation (markers) vs time marching (lines)', panels)
+        panels = panel_specs(terms)
+        fig, axes = panel_figure('Collocation (markers) vs time marching (lines)', panels)
         for (fid, name), style in ((('low', 'low_optimum'), low_style),
                                    (('mixed', 'mixed_optimum'), mixed_style)):
             key = f'{fid}/{name}'
@@ -609,9 +496,9 @@ def render_study(out: Path) -> list[Path]:
                 continue
             tm = {k.split('/')[-1]: data[k] for k in data.files if k.startswith(key + '/')}
             for ax, (sig, _, _) in zip(axes, panels):
-                _curves(ax, sig, tm['t'], tm, labels, f'{fid} fidelity, time marching',
+                plot_curves(ax, sig, tm['t'], tm, labels, f'{fid} fidelity, time marching',
                         dict(style, lw=0.9, ls='-'))
-                _curves(ax, sig, traj[fid, name].t, traj[fid, name].values, labels,
+                plot_curves(ax, sig, traj[fid, name].t, traj[fid, name].values, labels,
                         f'{fid} fidelity, collocation nodes', style, marker=True)
         axes[0].legend(fontsize=7)
         fig.savefig(figs / 'verification.png', dpi=110)
@@ -626,7 +513,8 @@ def render_study(out: Path) -> list[Path]:
 # ---------------------------------------------------------------------------- coupling
 def coupling_markdown(res: dict[str, Any]) -> str:
     """The tables of a ``suspopt coupling`` directory (:mod:`suspopt.coupling`)."""
-    from suspopt.coupling import DESIGN_LABELS, DESIGNS, MODEL_LABELS
+    DESIGN_LABELS, DESIGNS, MODEL_LABELS = (COUPLING_DESIGN_LABELS, COUPLING_DESIGNS,
+                                            COUPLING_MODEL_LABELS)
     names, ev, designs = res['design_names'], res['evaluations'], res.get('designs', {})
     cfg = res['config']
     out = [_scales_line(res['terms'], res['scales'], res['normalization'],
@@ -698,7 +586,8 @@ def render_coupling(out_dir: str | Path) -> list[Path]:
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from suspopt.coupling import DESIGN_LABELS, DESIGNS, MODEL_LABELS
+    DESIGN_LABELS, DESIGNS, MODEL_LABELS = (COUPLING_DESIGN_LABELS, COUPLING_DESIGNS,
+                                            COUPLING_MODEL_LABELS)
     out = Path(out_dir)
     res = read_json(out / 'coupling.json')
     write_text(out / 'table.md', coupling_markdown(res))

@@ -33,6 +33,15 @@ RUN_OUTPUTS = ('result.json', 'study.json', 'pareto.json', 'compare.json', 'coup
 LOCK = '.suspopt.lock'
 #: the designs of the two-step study, as recorded (study.json, case labels)
 STUDY_DESIGNS = ('initial', 'low_optimum', 'mixed_optimum')
+#: the three models of ``suspopt coupling`` (suspopt.coupling), the four designs and the model
+#: whose optimum each is (initial: none)
+COUPLING_MODEL_LABELS = {'low': 'half car', 'ground': 'multibody, ground mount (paper)',
+                         'chassis': 'multibody, chassis mount'}
+COUPLING_DESIGNS = {'initial': None, 'low_optimum': 'low', 'ground_optimum': 'ground',
+                    'chassis_optimum': 'chassis'}
+COUPLING_DESIGN_LABELS = {'initial': 'Initial guess', 'low_optimum': 'Low-fidelity optimum',
+                          'ground_optimum': 'Paper-coupling optimum (ground mount)',
+                          'chassis_optimum': 'Consistent-coupling optimum (chassis mount)'}
 
 
 def _json_default(obj: Any) -> Any:

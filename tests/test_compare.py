@@ -16,7 +16,7 @@ import shutil
 import numpy as np
 import pytest
 
-from suspopt import compare, compare_report, report
+from suspopt import compare, compare_report
 from suspopt.cli import main
 from suspopt.compare_report import compare_markdown
 from suspopt.errors import ModelError
@@ -165,7 +165,7 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
     monkeypatch.setattr(compare, 'VehicleProblem', Problem)
     for name in ('_kinematics_figure', '_cross_figure'):  # the tables are the point here
         monkeypatch.setattr(compare_report, name, lambda path, data: path)
-    monkeypatch.setattr(report, '_road_figure', lambda path, out, config: path)
+    monkeypatch.setattr(compare_report, 'road_figure', lambda path, out, config: path)
 
 
 def _run(tiny, out, capsys, extra=()):

@@ -152,7 +152,6 @@ def test_unreadable_and_invalid_files(tmp_path, capsys):
 
 
 def test_bad_mechanism_file(tmp_path):
-    src = (StudyConfig().to_dict())  # noqa: F841
     mech = tmp_path / 'mech.toml'
     from suspopt.multibody.mechanism import mechanism_path
     text = mechanism_path('double_wishbone').read_text()

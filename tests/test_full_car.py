@@ -2,7 +2,6 @@
 two-corner reduction."""
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 import pytest

@@ -120,7 +120,7 @@ def test_total_derivatives_match_fd_of_converged_model(cfg, scales):
         transcription=dataclasses.replace(cfg.transcription, segments=30),
         optimizer=dataclasses.replace(cfg.optimizer, tol=1e-13,
                                       options={'constr_viol_tol': 1e-14}))
-    guess = simulate(base, 'mixed', x0, rtol=1e-7, atol=1e-10)
+    guess = simulate(base, 'low', x0, rtol=1e-7, atol=1e-10)  # a start; solved to 1e-13
     grads = {}
     for form in ('central', 'forward'):
         c = base.replace(multibody=dataclasses.replace(base.multibody, fd_form=form))
@@ -153,7 +153,7 @@ def test_check_totals_of_the_nlp(cfg, scales):
     with VehicleProblem(small, 'mixed', scales) as vp:
         x0 = {'k_S1': 32000.0, 'k_S2': 21000.0, 'c_S1': 2600.0, 'c_S2': 2200.0}
         vp.set_design(x0)
-        vp.set_initial_guess(simulate(small, 'mixed', x0, rtol=1e-7, atol=1e-10))
+        vp.set_initial_guess(simulate(small, 'low', x0, rtol=1e-7, atol=1e-10))
         p = vp.problem
         p.run_model()
         wrt = [vp.design_var(n) for n in vp.design_names]

@@ -32,7 +32,7 @@ from suspopt.multibody.elements import PrescribedMotion
 from suspopt.multibody.elements.fixed import FixedGroup
 from suspopt.multibody.elements.prescribed import PrescribedGroup
 from suspopt.multibody.elements.prismatic import PrismaticGroup
-from suspopt.multibody.mechanism import load_mechanism, mechanism_from_dict
+from suspopt.multibody.mechanism import mechanism_from_dict
 from mechanisms import with_suspension_load  # noqa: E402 (tests/ is on the path)
 from suspopt.multibody.solver import PlanarMultibodySolver
 

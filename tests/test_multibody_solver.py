@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from suspopt.errors import ConfigError, MultibodyError
-from suspopt.multibody.mechanism import load_mechanism, mechanism_from_dict, mechanism_path
+from suspopt.multibody.mechanism import mechanism_from_dict, mechanism_path
 from suspopt.multibody.simulate import simulate_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 from suspopt.multibody.suspension import SuspensionModule

@@ -30,7 +30,7 @@ import openmdao.api as om
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from suspopt.driver import structure
+import suspopt.driver.structure as structure
 
 
 @dataclass(frozen=True)
