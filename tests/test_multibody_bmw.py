@@ -592,7 +592,7 @@ def test_corner_matches_exudyn(name, corner):
     params = {corner['name']: {'stiffness': corner['k'], 'damping': corner['c']}}
     force = pulse(corner['peak'])
     tr = simulate_mechanism(s, (0.0, EX_T_END), [s.q0[1]], [0.0], t_eval=ex['W'][:, 0],
-                            max_step=0.01, rtol=1e-8, atol=1e-10,
+                            max_step=0.02, rtol=1e-8, atol=1e-10,
                             loads=lambda t, q, qd: np.array([force(t)]),
                             params=params)
     np.testing.assert_allclose(tr.t, ex['W'][:, 0], atol=1e-9)
