@@ -13,9 +13,20 @@ to SAE 2007-01-0817 and 2007-01-0818):
   + (5.813 + 23.965)/2 = 75.6 kg; the 225/40 R18 tyre's 11.2 kg for both, Chrono's TMeasy
   rear tyre mass of 37.6 kg being another vehicle's);
 * tyre vertical rates 310.5 kN/m (front) and 357.9 kN/m (rear);
-* spring 29,770 / 37,130 N/m and damper 4,352 / 5,810 N s/m (front / rear), used here as
-  the initial design at the wheel (the half car's springs act at the wheel);
-* anti-roll bars 75,745 N m/rad front (marked "todo" in Chrono) and 4,030 N m/rad rear.
+* spring 29,770 / 37,130 N/m and damper 4,352 / 5,810 N s/m (front / rear), Chrono's rates
+  of the elements themselves, used here as the initial design at the wheel (the
+  low-fidelity model's springs act at the wheel);
+* anti-roll bars 75,745 N m/rad front (marked "todo" in Chrono) and 4,030 N m/rad rear;
+* mixed-fidelity corners (``multibody/data/``): ``bmw_e90_front``, the MacPherson strut
+  of ``macpherson.toml`` with these masses, and ``bmw_e90_rear``, Chrono's rear double
+  A-arm in the front view with its spring-damper on Chrono's spring line. Each linkage's
+  moving mass is the unsprung mass above: its bodies carry the terms of the sum, the
+  arms and the strut at half their mass (radii of gyration kept). There, as for the
+  paper's double wishbone, k_S and c_S are the spring-damper's own rates, not the wheel's:
+  the strut's motion ratio is close to 1, the rear spring's well below it (the wheel
+  feeds back only a fraction of the rate, the files' headers give it), so the same
+  design makes a softer, less damped rear in the mixed model than in the low-fidelity
+  one.
 """
 from __future__ import annotations
 
@@ -26,9 +37,9 @@ BMW_E90 = {
         'chassis_pitch_inertia': 2487.0,
         'chassis_roll_inertia': 572.0,
         'front': {'axle_position': 1.371, 'wheel_mass': 60.8, 'tyre_stiffness': 310526.3,
-                  'track': 1.500124, 'anti_roll_bar': True, 'mechanism': 'double_wishbone'},
+                  'track': 1.500124, 'anti_roll_bar': True, 'mechanism': 'bmw_e90_front'},
         'rear': {'axle_position': -1.38617, 'wheel_mass': 75.6, 'tyre_stiffness': 357859.2,
-                 'track': 1.4986, 'anti_roll_bar': True, 'mechanism': 'double_wishbone'},
+                 'track': 1.4986, 'anti_roll_bar': True, 'mechanism': 'bmw_e90_rear'},
     },
     'maneuver': {'speed': 20.0, 'horizon': 5.0},
     'road': {'profile': 'iso8608', 'road_class': 'C', 'seed': 1},
