@@ -20,9 +20,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import (ScalarSpringGroup, axis_projection,
-                                             axis_projection_quadratic, read_spring_common,
-                                             rot_apply, spring_spec_keys)
+from suspopt.multibody.elements.base import (AxisProjection, ScalarSpringGroup,
+                                             read_spring_common, rot_apply, spring_spec_keys)
 
 
 @dataclass(frozen=True)
@@ -60,15 +59,16 @@ class LinearSpringDamperGroup(ScalarSpringGroup):
     def setup(self, specs, layout):
         axis = np.array([s.axis for s in specs], dtype=float).reshape(-1, 2)
         self.axis = rot_apply(-layout.angle0(self.bodies[:, 0]), axis)  # in body 0's axes
+        self.projection = AxisProjection(self.bodies, self.u, self.axis)
 
     def measure(self, qe):
-        return axis_projection(qe, self.bodies, self.u, self.axis)
+        return self.projection.measure(qe)
 
     def quadratic(self, qe, qde):
-        return axis_projection_quadratic(qe, qde, self.bodies, self.u, self.axis)
+        return self.projection.quadratic(qe, qde)
 
     def directions(self, qe):
-        n = rot_apply(qe[:, self.bodies[:, 0], 2], self.axis)
+        n = self.projection.normal(qe)
         return np.stack([n, -n], 2)
 
 
