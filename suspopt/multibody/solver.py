@@ -45,8 +45,9 @@ from numpy.typing import ArrayLike
 
 from suspopt.errors import ConfigError, MultibodyError
 from suspopt.multibody.elements import FixedJoint, PointLoad, PrescribedMotion
-from suspopt.multibody.elements.base import (COORDINATES, BodyPoints, Layout,
-                                             ScalarSpringGroup, cross, gather, perp, rot_apply)
+from suspopt.multibody.elements.base import (COORDINATES, BodyPoints, CoincidenceJointGroup,
+                                             CoincidenceSet, Layout, ScalarSpringGroup, cross,
+                                             gather, perp, rot_apply)
 from suspopt.multibody.mechanism import GROUND, Mechanism
 
 #: a state where the linkage moves this many times faster than at its reference pose is
@@ -156,6 +157,23 @@ class PlanarMultibodySolver:
                       + 3 * g.bodies[:, :, None, None] + np.arange(3)).ravel()
             self.joint_groups.append(g)
         self.prescribed = [name for g in self.joint_groups if g.rheonomic for name in g.names]
+        # the coincidence joints (revolute, fixed) evaluated at once in the analyses: C_q is
+        # their constant entries, then their arms, then the other groups' blocks
+        coinc = [g for g in self.joint_groups if isinstance(g, CoincidenceJointGroup)]
+        self._coincidences = (CoincidenceSet(coinc, [g.rows for g in coinc], nb)
+                              if coinc else None)
+        self._others = [(gi, g) for gi, g in enumerate(self.joint_groups)
+                        if not isinstance(g, CoincidenceJointGroup)]
+        self._Cq0 = np.zeros(self.m * self.n)  # C_q (m, n) flattened
+        if coinc:
+            for r, c, val in self._coincidences.jac_const:
+                self._Cq0[r * self.n + c] = val
+        for _, g in self._others:  # g.flat in C_q (m, n), without the ground's columns
+            row, col = np.divmod(g.flat, 3 * (nb + 1))
+            g.flat_keep = np.flatnonzero(col < self.n)
+            g.flat_mn = (row * self.n + col)[g.flat_keep]
+        self._all_coincident = (not self._others and self.m > 0 and np.array_equal(
+            self._coincidences.rows, np.arange(self.m)))
         # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
         # one matrix (2 nj, m), where that block does not depend on q
         self._first_force = np.zeros((len(specs), 2, self.m))
@@ -325,6 +343,50 @@ class PlanarMultibodySolver:
             J = g.jacobian(qe) if blocks is None else blocks[i]
             Cq[:, g.flat] = J.reshape(N, -1)
         return Cq.reshape(N, self.m, -1)[:, :, :self.n]
+
+    def _analysis(self, q: np.ndarray, drives: list[np.ndarray | None]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """``C`` (N, m) and ``C_q`` (N, m, n) at ``q`` (N, n) at once (the position
+        analysis' Newton iterations): what :meth:`constraints` and
+        :meth:`constraint_jacobian` give, the coincidence joints evaluated together."""
+        N = q.shape[0]
+        Cq = np.empty((N, self._Cq0.size))
+        Cq[...] = self._Cq0
+        co = self._coincidences
+        if co is not None:
+            Cc, Jv = co.residual_jacobian(co.pool(q))
+            Cq[:, co.jac_var] = Jv
+            if self._all_coincident:
+                return Cc, Cq.reshape(N, self.m, self.n)
+        C = np.empty((N, self.m))
+        if co is not None:
+            C[:, co.rows] = Cc
+        qe = self._ext(q)
+        for gi, g in self._others:
+            Cg, J = g.residual_jacobian(qe, drives[gi])
+            C[:, g.row_index] = Cg.reshape(N, -1)
+            Cq[:, g.flat_mn] = J.reshape(N, -1).take(g.flat_keep, axis=1)
+        return C, Cq.reshape(N, self.m, self.n)
+
+    def _gamma_all(self, q: np.ndarray, qd: np.ndarray, drives: list[np.ndarray | None],
+                   qe: np.ndarray | None = None, qde: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`gamma` with the coincidence joints evaluated together (``qe``, ``qde``:
+        :meth:`_ext` of ``q`` and ``qd``, if the caller has them)."""
+        co = self._coincidences
+        if co is None or not self._all_coincident:
+            qe = self._ext(q) if qe is None else qe
+            qde = self._ext(qd) if qde is None else qde
+            if co is None:
+                return self._gamma(qe, qde, drives)
+        gc = co.gamma(co.pool(q), qd)
+        if self._all_coincident:
+            return gc
+        N = q.shape[0]
+        g = np.empty((N, self.m))
+        g[:, co.rows] = gc
+        for gi, grp in self._others:
+            g[:, grp.row_index] = grp.gamma(qe, qde, drives[gi]).reshape(N, -1)
+        return g
 
     def constraint_rate(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None,
                         Cq: np.ndarray | None = None) -> np.ndarray:
@@ -603,44 +665,29 @@ class PlanarMultibodySolver:
         Cq_out = res_out = None  # (full) C_q and max |C| of the states converged so far
         for it in range(self.newton_max_iter + 1):
             qa = q if todo is None else q[todo]
-            qe = self._ext(qa)
-            Na = qa.shape[0]
-            C = np.empty((Na, self.m))
-            blocks = []
-            for g, d in zip(self.joint_groups,
-                            drives if todo is None else self._subset(drives, todo)):
-                Cg, J = g.residual_jacobian(qe, d)
-                C[:, g.row_index] = Cg.reshape(Na, -1)
-                blocks.append(J)
-            err = np.abs(C).max(axis=1, initial=0.0)
+            C, Cq = self._analysis(qa, drives if todo is None else self._subset(drives, todo))
+            err = np.maximum.reduce(np.abs(C), axis=1, initial=0.0)
             open_ = err >= self.newton_tol
-            any_open = open_.any()
-            Cq = None
+            n_open = np.count_nonzero(open_)
             if full:
-                Cq = self._jacobian(qe, blocks)
-                if todo is None and not any_open:
+                if todo is None and not n_open:
                     return q, Cq, err
-                if Cq_out is None:
-                    Cq_out, res_out = np.empty((N, self.m, self.n)), np.empty(N)
-                done = ~open_
-                idx = np.flatnonzero(done) if todo is None else todo[done]
-                Cq_out[idx] = Cq[done]
-                res_out[idx] = err[done]
-                if not any_open:
+                if n_open < qa.shape[0]:  # these states end here: keep their C_q, max |C|
+                    if Cq_out is None:
+                        Cq_out, res_out = np.empty((N, self.m, self.n)), np.empty(N)
+                    done = ~open_
+                    idx = np.flatnonzero(done) if todo is None else todo[done]
+                    Cq_out[idx] = Cq[done]
+                    res_out[idx] = err[done]
+                if not n_open:
                     return q, Cq_out, res_out
-            elif not any_open:
+            elif not n_open:
                 return q
             if it == self.newton_max_iter:
                 break
-            if not open_.all():
+            if n_open < qa.shape[0]:
                 todo = np.flatnonzero(open_) if todo is None else todo[open_]
-                qe, qa, C = qe[open_], qa[open_], C[open_]
-                if Cq is None:
-                    blocks = [b[open_] for b in blocks]
-                else:
-                    Cq = Cq[open_]
-            if Cq is None:
-                Cq = self._jacobian(qe, blocks)
+                qa, C, Cq = qa[open_], C[open_], Cq[open_]
             step = _batched_solve(Cq.take(self.dep, 2), C, 'position analysis C(q) = 0')
             if todo is None:
                 q[:, self.dep] -= step
@@ -662,28 +709,31 @@ class PlanarMultibodySolver:
         (``∂q_dep/∂q_ind = -C_q,dep⁻¹ C_q,ind``, solved with the same factorization) is a
         :class:`MultibodyError`: the mechanism is at or near a singular (toggle) position,
         the edge of its range of motion, where its dynamics have no finite solution."""
-        qd = np.zeros_like(q)
+        N = q.shape[0]
+        qd = np.zeros_like(q)  # q's memory order (what einsum on qd sums in)
         qd[:, self.ind] = qd_ind
         if Cq is None:
             Cq = self.constraint_jacobian(q)
         C_ind = Cq.take(self.ind, 2)
-        if self.dof == 1:
-            rhs = -(C_ind[:, :, 0] * qd[:, self.ind])
+        if self.dof == 1:  # the sum of one product, from zero (the signs of zeros) as einsum
+            rhs = -(C_ind[:, :, 0] * qd.take(self.ind, 1) + 0.0)
         else:
             rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
         if motion:
-            nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
+            nu = self._nu(self._drives(motion, N), N)
             if nu is not None:
                 rhs = rhs + nu
         if max_sensitivity is None:
             qd[:, self.dep] = _batched_solve(Cq.take(self.dep, 2), rhs, 'velocity analysis')
             return qd
-        x = _batched_solve(Cq.take(self.dep, 2), np.concatenate([rhs[..., None], -C_ind], -1),
-                           'velocity analysis')
+        b = np.empty(C_ind.shape[:2] + (1 + self.dof,))
+        b[:, :, 0] = rhs
+        np.negative(C_ind, out=b[:, :, 1:])
+        x = _batched_solve(Cq.take(self.dep, 2), b, 'velocity analysis')
         qd[:, self.dep] = x[..., 0]
-        ratio = np.abs(x[..., 1:]).max(axis=(1, 2)) / self.sensitivity0
-        worst = int(ratio.argmax())
-        if ratio[worst] > max_sensitivity:
+        ratio = np.maximum.reduce(np.abs(x[..., 1:]), axis=(1, 2)) / self.sensitivity0
+        if np.maximum.reduce(ratio) > max_sensitivity:
+            worst = int(ratio.argmax())
             raise MultibodyError(
                 f'{self.mechanism.name}: near a singular (toggle) position at independent '
                 f'coordinate(s) {np.round(q[worst, self.ind], 6).tolist()}: the linkage '

@@ -312,7 +312,7 @@ class SuspensionModule:
             s.calls['augmented'] += 1
             Cq = s.constraint_jacobian(q) if state.Cq is None else state.Cq
             state.qdd, state.lam = s._augmented(q, qd, Q, Cq,
-                                                s._gamma(qe, qde, s._drives(None, N)))
+                                                s._gamma_all(q, qd, s._drives(None, N), qe, qde))
             F_S = -self._spring_force(qe, qde, values, parts) * e_z
         finally:
             self.time_s += time.perf_counter() - t0
