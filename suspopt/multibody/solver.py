@@ -306,17 +306,19 @@ class PlanarMultibodySolver:
             if gi not in given and not from_loads and g.all_zero:
                 continue
             values = {}
+            mine = given.get(gi, {})
             for p, v in g.defaults.items():
                 if from_loads and p == 'magnitude':
                     values[p] = np.asarray(loads, dtype=float)[:, self._load_columns[gi]]
                 else:
                     values[p] = a = np.empty((N, v.size))
-                    a[...] = v
+                    if len(mine.get(p, ())) < v.size:  # (all given: no defaults left)
+                        a[...] = v
             for p, items in given.get(gi, {}).items():
+                a = values[p]
                 for k, val in items:
                     val = np.asarray(val, dtype=float)
-                    values[p][:, k] = val if val.shape in ((), (N,)) else np.broadcast_to(
-                        val, (N,))
+                    a[:, k] = val if val.shape in ((), (N,)) else np.broadcast_to(val, (N,))
             out[gi] = values
         return out
 
@@ -456,9 +458,11 @@ class PlanarMultibodySolver:
         return self._forces(q, self._ext(q), None if qd is None else self._ext(qd), values)[0]
 
     def _forces(self, q: np.ndarray, qe: np.ndarray | None, qde: np.ndarray | None,
-                values: list[dict[str, np.ndarray] | None]) -> tuple[np.ndarray, list]:
+                values: list[dict[str, np.ndarray] | None],
+                geometry: dict | None = None) -> tuple[np.ndarray, list]:
         """:meth:`generalized_forces` from the groups' values, and what each group computed
-        on the way (:meth:`ForceGroup.forces`; None for a group without force)."""
+        on the way (:meth:`ForceGroup.forces`; None for a group without force);
+        ``geometry``: groups' :meth:`ScalarSpringGroup.geometry` at ``qe`` by group."""
         N = q.shape[0]
         Q = np.zeros((N, self.n))
         if self._gravity_force is not None:
@@ -466,7 +470,8 @@ class PlanarMultibodySolver:
         parts: list = [None] * len(self.force_groups)
         for gi, (grp, v) in enumerate(zip(self.force_groups, values)):
             if v is not None:
-                Qg, parts[gi] = grp.forces(qe, qde, v)
+                Qg, parts[gi] = grp.forces(qe, qde, v, None if geometry is None
+                                           else geometry.get(gi))
                 Q += Qg.reshape(N, -1) @ grp.scatter
         return Q, parts
 
@@ -485,20 +490,20 @@ class PlanarMultibodySolver:
         values = self._force_values(q.shape[0], None, params, only=gi)[gi]
         if values is None:  # all zero
             values = {p: np.zeros((q.shape[0], len(grp.names))) for p in grp.parameters}
-        return self._spring_state(gi, k, qe, qde, grp.tension(qe, qde, values), qdd=qdd)
+        geo = grp.geometry(qe)
+        return self._spring_state(gi, k, qe, qde, grp.tension(qe, qde, values, geo),
+                                  grp.directions(qe, geo)[:, k], qdd, geo)
 
     def _spring_state(self, gi: int, k: int, qe: np.ndarray, qde: np.ndarray | None,
-                      tension: tuple[np.ndarray, ...], direction: np.ndarray | None = None,
-                      qdd: np.ndarray | None = None) -> SpringState:
-        """:meth:`spring` from its group's :meth:`~ScalarSpringGroup.tension` (and the
-        element's line of action (N, 2, 2), if the caller has it)."""
+                      tension: tuple[np.ndarray, ...], direction: np.ndarray,
+                      qdd: np.ndarray | None = None, geometry=None) -> SpringState:
+        """:meth:`spring` from its group's :meth:`~ScalarSpringGroup.tension` and the
+        element's line of action (N, 2, 2)."""
         grp = self.force_groups[gi]
         ell, ell_d, f, grad = tension
         acc = np.full(qe.shape[0], np.nan)
         if qdd is not None and qde is not None:
-            acc = (grp.rate(grad, self._ext(qdd)) + grp.quadratic(qe, qde))[:, k]
-        if direction is None:
-            direction = grp.directions(qe)[:, k]
+            acc = (grp.rate(grad, self._ext(qdd)) + grp.quadratic(qe, qde, geometry))[:, k]
         return SpringState(length=ell[:, k], deflection=ell[:, k] - grp.free_length[k],
                            rate=ell_d[:, k], acceleration=acc, force=f[:, k],
                            direction=direction, end_forces=f[:, k, None, None] * direction,
@@ -818,11 +823,22 @@ try:  # the gufunc behind np.linalg.solve, without its argument handling (small 
     from numpy.linalg import _umath_linalg
     from numpy.linalg._linalg import _raise_linalgerror_singular
     _solve = _umath_linalg.solve
+    try:  # np.linalg.solve's error state, made once
+        from numpy._core._ufunc_config import _extobj_contextvar, _make_extobj
+        _SOLVE_ERRORS = _make_extobj(call=_raise_linalgerror_singular, invalid='call',
+                                     over='ignore', divide='ignore', under='ignore')
 
-    def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-        with np.errstate(call=_raise_linalgerror_singular, invalid='call', over='ignore',
-                         divide='ignore', under='ignore'):
-            return _solve(A, b, signature='dd->d')
+        def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+            token = _extobj_contextvar.set(_SOLVE_ERRORS)
+            try:
+                return _solve(A, b, signature='dd->d')
+            finally:
+                _extobj_contextvar.reset(token)
+    except (ImportError, AttributeError, TypeError):  # pragma: no cover - NumPy < 2
+        def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+            with np.errstate(call=_raise_linalgerror_singular, invalid='call',
+                             over='ignore', divide='ignore', under='ignore'):
+                return _solve(A, b, signature='dd->d')
 except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
     _lapack_solve = np.linalg.solve
 

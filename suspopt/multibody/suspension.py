@@ -271,10 +271,10 @@ class SuspensionModule:
         its chassis end, (N,)."""
         return self._spring_directions(self.solver._ext(state.q))[:, 1 - self.chassis_end, 1]
 
-    def _spring_directions(self, qe: np.ndarray) -> np.ndarray:
+    def _spring_directions(self, qe: np.ndarray, geometry=None) -> np.ndarray:
         """The spring's line of action at both ends (N, 2, 2), see :meth:`spring`."""
         gi, k = self._spring_group
-        return self.solver.force_groups[gi].directions(qe)[:, k]
+        return self.solver.force_groups[gi].directions(qe, geometry)[:, k]
 
     def _spring_force(self, qe, qde, values, parts) -> np.ndarray:
         """The spring's tension (N,) from the force groups' values and what their
@@ -282,7 +282,8 @@ class SuspensionModule:
         gi, k = self._spring_group
         tension = parts[gi]
         if tension is None:
-            tension = self.solver.force_groups[gi].tension(qe, qde, values[gi])
+            grp = self.solver.force_groups[gi]
+            tension = grp.tension(qe, qde, values[gi], grp.geometry(qe))
         return tension[2][:, k]
 
     def dynamics(self, state: MultibodyState, z_M: np.ndarray, v_M: np.ndarray,
@@ -303,11 +304,13 @@ class SuspensionModule:
             qe, qde = s._ext(q), s._ext(qd)
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
-            e_z = self._spring_directions(qe)[:, 1 - self.chassis_end, 1]  # axis_vertical
+            gi = self._spring_group[0]
+            geo = {gi: s.force_groups[gi].geometry(qe)}  # the spring's, once
+            e_z = self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1]
             params = {self.spring_name: {'stiffness': k_S, 'damping': c_S,  # spring_params
                                          'preload': e_z * (k_S * z_M + c_S * v_M)}}
             values = s._force_values(N, loads, params)
-            Q, parts = s._forces(q, qe, qde, values)
+            Q, parts = s._forces(q, qe, qde, values, geo)
             # solve_augmented(q, qd, Q, Cq=state.Cq)
             s.calls['augmented'] += 1
             Cq = s.constraint_jacobian(q) if state.Cq is None else state.Cq
@@ -344,8 +347,10 @@ class SuspensionModule:
             loads[:, self.tyre_load] = F_T
             params = {self.spring_name: {'stiffness': k_S, 'damping': c_S}}
             qe, qde = s._ext(state.q), s._ext(state.qd)
+            gi = self._spring_group[0]
+            geo = {gi: s.force_groups[gi].geometry(qe)}
             values = s._force_values(N, loads, params)
-            Q, parts = s._forces(state.q, qe, qde, values)
+            Q, parts = s._forces(state.q, qe, qde, values, geo)
             frame = self.frame_accelerations(pose)
             if acceleration is not None:
                 a = np.asarray(acceleration, dtype=float).reshape(N, 2)
@@ -370,7 +375,7 @@ class SuspensionModule:
                                             on_frame[:, 0]], -1),
                                   R[:, :self.n_joints, 0, :2].reshape(q.shape[0], -1)], -1)
             F_S = (-self._spring_force(qe, qde, values, parts)
-                   * self._spring_directions(qe)[:, 1 - self.chassis_end, 1])
+                   * self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1])
         finally:
             self.time_s += time.perf_counter() - t0
         return out.reshape(blocks, N, -1).transpose(1, 0, 2), F_S

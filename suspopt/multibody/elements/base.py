@@ -149,9 +149,10 @@ class AxisProjection:
         """``n = A(φ_a) ā`` (N, ne, 2)."""
         return rot_apply(gather(qe, self.points.phi[:, 0]), self.axis, self.axis_perp)
 
-    def measure(self, qe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``ℓ`` (N, ne) and ``∂ℓ/∂q`` of a and b (N, ne, 2, 3)."""
-        qb, arm, p, n = self.geometry(qe)
+    def measure(self, qe: np.ndarray, geometry=None) -> tuple[np.ndarray, np.ndarray]:
+        """``ℓ`` (N, ne) and ``∂ℓ/∂q`` of a and b (N, ne, 2, 3) (``geometry``:
+        :meth:`geometry` at ``qe``, if the caller has it)."""
+        qb, arm, p, n = self.geometry(qe) if geometry is None else geometry
         G = np.empty(arm.shape[:2] + (2, 3))
         G[:, :, 0, :2] = -n
         G[:, :, 0, 2] = cross(n, p[:, :, 1] - qb[:, :, 0, :2])  # (B n̄)ᵀ (p_b - r_a)
@@ -159,10 +160,10 @@ class AxisProjection:
         G[:, :, 1, 2] = cross(arm[:, :, 1], n)                 # nᵀ perp(A_b u_b)
         return dot(n, p[:, :, 1] - p[:, :, 0]), G
 
-    def quadratic(self, qe: np.ndarray, qde: np.ndarray) -> np.ndarray:
+    def quadratic(self, qe: np.ndarray, qde: np.ndarray, geometry=None) -> np.ndarray:
         """``(ℓ_q q̇)_q q̇`` (so ``ℓ̈ = ℓ_q q̈ +`` this), (N, ne):
         ``-nᵀd ω_a² + 2 ω_a (B n)ᵀ ḋ - nᵀ(A_b u_b ω_b² - A_a u_a ω_a²)``, ``d = p_b - p_a``."""
-        qb, arm, p, n = self.geometry(qe)
+        qb, arm, p, n = self.geometry(qe) if geometry is None else geometry
         vb = gather(qde, self.points.coords)
         w = vb[..., 2]
         v = vb[..., :2] + perp(arm) * w[..., None]
@@ -431,10 +432,11 @@ class ForceGroup:
         """Generalized force on each connected body (``self.bodies``), (N, ne, S, 3)."""
         raise NotImplementedError
 
-    def forces(self, qe: np.ndarray, qde: np.ndarray | None,
-               values: dict[str, np.ndarray]) -> tuple[np.ndarray, Any]:
+    def forces(self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray],
+               geometry: Any = None) -> tuple[np.ndarray, Any]:
         """:meth:`generalized_force` and what the type computed on the way that a query
-        may reuse (a spring's :meth:`ScalarSpringGroup.tension`; None here)."""
+        may reuse (a spring's :meth:`ScalarSpringGroup.tension`; None here); ``geometry``:
+        a spring's :meth:`ScalarSpringGroup.geometry` at ``qe``, if the caller has it."""
         return self.generalized_force(qe, qde, values), None
 
     def potential(self, qe: np.ndarray, values: dict[str, np.ndarray]) -> np.ndarray:
@@ -473,15 +475,21 @@ class ScalarSpringGroup(ForceGroup):
     def length(self, qe: np.ndarray) -> np.ndarray:
         return self.measure(qe)[0]
 
-    def measure(self, qe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def geometry(self, qe: np.ndarray) -> Any:
+        """What :meth:`measure`, :meth:`quadratic` and :meth:`directions` share at ``qe``,
+        for a caller that needs several of them at one pose (they take it as
+        ``geometry``); None if nothing."""
+        return None
+
+    def measure(self, qe: np.ndarray, geometry: Any = None) -> tuple[np.ndarray, np.ndarray]:
         """``ℓ`` (N, ne) and ``∂ℓ/∂q_b`` of both end bodies (N, ne, 2, 3)."""
         raise NotImplementedError
 
-    def quadratic(self, qe: np.ndarray, qde: np.ndarray) -> np.ndarray:
+    def quadratic(self, qe: np.ndarray, qde: np.ndarray, geometry: Any = None) -> np.ndarray:
         """``(ℓ_q q̇)_q q̇`` (N, ne)."""
         raise NotImplementedError
 
-    def directions(self, qe: np.ndarray) -> np.ndarray:
+    def directions(self, qe: np.ndarray, geometry: Any = None) -> np.ndarray:
         """Unit line of action at each end, pointing to the other end (N, ne, 2, 2): a
         positive tension pulls end e along ``directions[..., e, :]``."""
         raise NotImplementedError
@@ -489,10 +497,10 @@ class ScalarSpringGroup(ForceGroup):
     def rate(self, grad: np.ndarray, qde: np.ndarray) -> np.ndarray:
         return np.einsum('nesc,nesc->ne', grad, qde[:, self.bodies])
 
-    def tension(self, qe: np.ndarray, qde: np.ndarray | None,
-                values: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
+    def tension(self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray],
+                geometry: Any = None) -> tuple[np.ndarray, ...]:
         """``ℓ``, ``ℓ̇``, ``f`` (N, ne each) and the gradient (N, ne, 2, 3)."""
-        ell, grad = self.measure(qe)
+        ell, grad = self.measure(qe, geometry)
         f = values['stiffness'] * (ell - self.free_length) + values['preload']
         if qde is None:
             if np.any(values['damping'] != 0.0):
@@ -508,10 +516,10 @@ class ScalarSpringGroup(ForceGroup):
         _, _, f, grad = self.tension(qe, qde, values)
         return -f[..., None, None] * grad
 
-    def forces(self, qe, qde, values):
+    def forces(self, qe, qde, values, geometry=None):
         if type(self).generalized_force is not ScalarSpringGroup.generalized_force:
             return self.generalized_force(qe, qde, values), None
-        t = self.tension(qe, qde, values)
+        t = self.tension(qe, qde, values, geometry)
         return -t[2][..., None, None] * t[3], t
 
     def potential(self, qe, values):

@@ -61,15 +61,21 @@ class LinearSpringDamperGroup(ScalarSpringGroup):
         self.axis = rot_apply(-layout.angle0(self.bodies[:, 0]), axis)  # in body 0's axes
         self.projection = AxisProjection(self.bodies, self.u, self.axis)
 
-    def measure(self, qe):
-        return self.projection.measure(qe)
+    def geometry(self, qe):
+        return self.projection.geometry(qe)
 
-    def quadratic(self, qe, qde):
-        return self.projection.quadratic(qe, qde)
+    def measure(self, qe, geometry=None):
+        return self.projection.measure(qe, geometry)
 
-    def directions(self, qe):
-        n = self.projection.normal(qe)
-        return np.stack([n, -n], 2)
+    def quadratic(self, qe, qde, geometry=None):
+        return self.projection.quadratic(qe, qde, geometry)
+
+    def directions(self, qe, geometry=None):
+        n = self.projection.normal(qe) if geometry is None else geometry[3]
+        out = np.empty(n.shape[:2] + (2, 2))
+        out[:, :, 0] = n
+        np.negative(n, out=out[:, :, 1])
+        return out
 
 
 LinearSpringDamper.group = LinearSpringDamperGroup

@@ -52,8 +52,11 @@ class SpringDamperGroup(ScalarSpringGroup):
         L = np.sqrt(dot(d, d))
         return arm, d, L, d / L[..., None]
 
-    def measure(self, qe):
-        arm, d, L, e = self._geometry(qe)
+    def geometry(self, qe):
+        return self._geometry(qe)
+
+    def measure(self, qe, geometry=None):
+        arm, d, L, e = self._geometry(qe) if geometry is None else geometry
         G = np.empty(L.shape + (2, 3))
         G[:, :, 0, :2] = -e
         G[:, :, 0, 2] = -cross(arm[:, :, 0], e)   # -eᵀ perp(A_0 u_0)
@@ -61,8 +64,8 @@ class SpringDamperGroup(ScalarSpringGroup):
         G[:, :, 1, 2] = cross(arm[:, :, 1], e)    # eᵀ perp(A_1 u_1)
         return L, G
 
-    def quadratic(self, qe, qde):
-        arm, d, L, e = self._geometry(qe)
+    def quadratic(self, qe, qde, geometry=None):
+        arm, d, L, e = self._geometry(qe) if geometry is None else geometry
         vb = gather(qde, self.points.coords)
         w = vb[..., 2]
         v = vb[..., :2] + perp(arm) * w[..., None]
@@ -71,9 +74,12 @@ class SpringDamperGroup(ScalarSpringGroup):
                        - arm[:, :, 1] * w[:, :, 1, None] ** 2)
         return dot(e, centripetal) + (dot(dd, dd) - dot(e, dd) ** 2) / L
 
-    def directions(self, qe):
-        e = self._geometry(qe)[3]
-        return np.stack([e, -e], 2)
+    def directions(self, qe, geometry=None):
+        e = (self._geometry(qe) if geometry is None else geometry)[3]
+        out = np.empty(e.shape[:2] + (2, 2))
+        out[:, :, 0] = e
+        np.negative(e, out=out[:, :, 1])
+        return out
 
 
 SpringDamper.group = SpringDamperGroup
