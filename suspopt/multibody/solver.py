@@ -55,6 +55,8 @@ from suspopt.multibody.mechanism import GROUND, Mechanism
 TOGGLE_SENSITIVITY = 100.0
 #: wheel-travel steps of the travel-range check (continuation, each half of the range)
 TRAVEL_STEPS = 10
+#: batches up to this many states iterate Newton's method as a whole (see _positions)
+SMALL_BATCH = 16
 
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
@@ -160,14 +162,10 @@ class PlanarMultibodySolver:
         # the coincidence joints (revolute, fixed) evaluated at once in the analyses: C_q is
         # their constant entries, then their arms, then the other groups' blocks
         coinc = [g for g in self.joint_groups if isinstance(g, CoincidenceJointGroup)]
-        self._coincidences = (CoincidenceSet(coinc, [g.rows for g in coinc], nb)
+        self._coincidences = (CoincidenceSet(coinc, [g.rows for g in coinc], nb, self.m)
                               if coinc else None)
         self._others = [(gi, g) for gi, g in enumerate(self.joint_groups)
                         if not isinstance(g, CoincidenceJointGroup)]
-        self._Cq0 = np.zeros(self.m * self.n)  # C_q (m, n) flattened
-        if coinc:
-            for r, c, val in self._coincidences.jac_const:
-                self._Cq0[r * self.n + c] = val
         for _, g in self._others:  # g.flat in C_q (m, n), without the ground's columns
             row, col = np.divmod(g.flat, 3 * (nb + 1))
             g.flat_keep = np.flatnonzero(col < self.n)
@@ -347,42 +345,45 @@ class PlanarMultibodySolver:
         return Cq.reshape(N, self.m, -1)[:, :, :self.n]
 
     def _analysis(self, q: np.ndarray, drives: list[np.ndarray | None]
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """``C`` (N, m) and ``C_q`` (N, m, n) at ``q`` (N, n) at once (the position
         analysis' Newton iterations): what :meth:`constraints` and
-        :meth:`constraint_jacobian` give, the coincidence joints evaluated together."""
+        :meth:`constraint_jacobian` give, the coincidence joints evaluated together (and
+        their pool, see :meth:`_gamma_all`)."""
         N = q.shape[0]
-        Cq = np.empty((N, self._Cq0.size))
-        Cq[...] = self._Cq0
         co = self._coincidences
-        if co is not None:
-            Cc, Jv = co.residual_jacobian(co.pool(q))
-            Cq[:, co.jac_var] = Jv
+        if co is None:
+            Cq = np.zeros((N, self.m * self.n))
+            v = None
+        else:
+            v = co.pool(q)
+            Cq = co.jacobian(v)
             if self._all_coincident:
-                return Cc, Cq.reshape(N, self.m, self.n)
+                return co.residual(v), Cq.reshape(N, self.m, self.n), v
         C = np.empty((N, self.m))
         if co is not None:
-            C[:, co.rows] = Cc
+            C[:, co.rows] = co.residual(v)
         qe = self._ext(q)
         for gi, g in self._others:
             Cg, J = g.residual_jacobian(qe, drives[gi])
             C[:, g.row_index] = Cg.reshape(N, -1)
             Cq[:, g.flat_mn] = J.reshape(N, -1).take(g.flat_keep, axis=1)
-        return C, Cq.reshape(N, self.m, self.n)
+        return C, Cq.reshape(N, self.m, self.n), v
 
     def _gamma_all(self, q: np.ndarray, qd: np.ndarray, drives: list[np.ndarray | None],
-                   qe: np.ndarray | None = None, qde: np.ndarray | None = None) -> np.ndarray:
+                   qe: np.ndarray | None = None, qde: np.ndarray | None = None,
+                   pool: np.ndarray | None = None) -> np.ndarray:
         """:meth:`gamma` with the coincidence joints evaluated together (``qe``, ``qde``:
-        :meth:`_ext` of ``q`` and ``qd``, if the caller has them)."""
+        :meth:`_ext` of ``q`` and ``qd``; ``pool``: the coincidence joints' at ``q``, if the
+        caller has them)."""
         co = self._coincidences
-        if co is None or not self._all_coincident:
-            qe = self._ext(q) if qe is None else qe
-            qde = self._ext(qd) if qde is None else qde
-            if co is None:
-                return self._gamma(qe, qde, drives)
-        gc = co.gamma(co.pool(q), qd)
+        qde = self._ext(qd) if qde is None else qde
+        if co is None:
+            return self._gamma(self._ext(q) if qe is None else qe, qde, drives)
+        gc = co.gamma(co.pool(q) if pool is None else pool, qde)
         if self._all_coincident:
             return gc
+        qe = self._ext(q) if qe is None else qe
         N = q.shape[0]
         g = np.empty((N, self.m))
         g[:, co.rows] = gc
@@ -641,18 +642,20 @@ class PlanarMultibodySolver:
 
     def _analysed_positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None,
                             motion: Motion | None = None):
-        """:meth:`positions` and, at the result, ``C_q`` (N, m, n) and each state's
-        ``max |C|`` (N,), as :meth:`constraint_jacobian` and :meth:`constraints` give them."""
+        """:meth:`positions` and, at the result, ``C_q`` (N, m, n), each state's
+        ``max |C|`` (N,), as :meth:`constraint_jacobian` and :meth:`constraints` give them,
+        and the coincidence joints' pool (see :meth:`_gamma_all`)."""
         self.calls['positions'] += 1
         q_ind = np.asarray(q_ind, dtype=float)
         return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]), full=True)
 
     def _positions(self, q_ind: np.ndarray, guess: np.ndarray | None,
                    drives: list[np.ndarray | None], full: bool = False):
-        """:meth:`positions`; with ``full``, also ``C_q`` (N, m, n) and ``max |C|`` (N,) of
-        each state at its result, from its last Newton iteration (what
-        :meth:`constraint_jacobian` and :meth:`constraints` give there)."""
-        if not np.isfinite(q_ind).all():
+        """:meth:`positions`; with ``full``, also ``C_q`` (N, m, n), ``max |C|`` (N,) and
+        the coincidence joints' pool (or None) of each state at its result, from its last
+        Newton iteration (what :meth:`constraint_jacobian` and :meth:`constraints` give
+        there)."""
+        if not np.logical_and.reduce(np.isfinite(q_ind), axis=None):
             raise MultibodyError(f'{self.mechanism.name}: non-finite independent coordinate')
         N = q_ind.shape[0]
         if guess is None:  # the reference pose moved along its tangent
@@ -666,34 +669,56 @@ class PlanarMultibodySolver:
         else:
             q = guess.copy()
         q[:, self.ind] = q_ind
-        todo = None  # the states still iterating (None: all of them)
-        Cq_out = res_out = None  # (full) C_q and max |C| of the states converged so far
+        # the states still iterating (None: all of them). A small batch iterates as a
+        # whole, its converged states held where they are (a zero step); a large one
+        # iterates only the states still open
+        todo = None
+        small = N <= SMALL_BATCH
+        out = None  # (full) C_q, max |C| and pool of the states converged so far
+
+        def keep(done):  # (full) the states ``done`` of this iteration end here
+            nonlocal out
+            if out is None:
+                out = (np.empty((N, self.m, self.n)), np.empty(N),
+                       None if pool is None else np.empty((N, pool.shape[1])))
+            idx = np.flatnonzero(done) if todo is None else todo[done]
+            out[0][idx] = Cq[done]
+            out[1][idx] = err[done]
+            if pool is not None:
+                out[2][idx] = pool[done]
+
         for it in range(self.newton_max_iter + 1):
             qa = q if todo is None else q[todo]
-            C, Cq = self._analysis(qa, drives if todo is None else self._subset(drives, todo))
+            C, Cq, pool = self._analysis(qa, drives if todo is None
+                                         else self._subset(drives, todo))
             err = np.maximum.reduce(np.abs(C), axis=1, initial=0.0)
             open_ = err >= self.newton_tol
             n_open = np.count_nonzero(open_)
-            if full:
-                if todo is None and not n_open:
-                    return q, Cq, err
-                if n_open < qa.shape[0]:  # these states end here: keep their C_q, max |C|
-                    if Cq_out is None:
-                        Cq_out, res_out = np.empty((N, self.m, self.n)), np.empty(N)
-                    done = ~open_
-                    idx = np.flatnonzero(done) if todo is None else todo[done]
-                    Cq_out[idx] = Cq[done]
-                    res_out[idx] = err[done]
-                if not n_open:
-                    return q, Cq_out, res_out
-            elif not n_open:
-                return q
+            if not n_open:
+                if todo is None:
+                    return (q, Cq, err, pool) if full else q
+                if full:
+                    keep(~open_)
+                return (q,) + out if full else q
             if it == self.newton_max_iter:
                 break
+            step = None
             if n_open < qa.shape[0]:
-                todo = np.flatnonzero(open_) if todo is None else todo[open_]
-                qa, C, Cq = qa[open_], C[open_], Cq[open_]
-            step = _batched_solve(Cq.take(self.dep, 2), C, 'position analysis C(q) = 0')
+                if small:
+                    try:
+                        step = _batched_solve(Cq.take(self.dep, 2), C,
+                                              'position analysis C(q) = 0')
+                    except MultibodyError:  # singular at a converged state
+                        small = False
+                    else:
+                        step[~open_] = 0.0
+                if not small:
+                    if full:
+                        keep(~open_)
+                    todo = np.flatnonzero(open_) if todo is None else todo[open_]
+                    qa, C, Cq = qa[open_], C[open_], Cq[open_]
+            if step is None:
+                step = _batched_solve(Cq.take(self.dep, 2), C, 'position analysis C(q) = 0')
             if todo is None:
                 q[:, self.dep] -= step
             else:
@@ -716,13 +741,17 @@ class PlanarMultibodySolver:
         the edge of its range of motion, where its dynamics have no finite solution."""
         N = q.shape[0]
         qd = np.zeros_like(q)  # q's memory order (what einsum on qd sums in)
-        qd[:, self.ind] = qd_ind
         if Cq is None:
             Cq = self.constraint_jacobian(q)
-        C_ind = Cq.take(self.ind, 2)
-        if self.dof == 1:  # the sum of one product, from zero (the signs of zeros) as einsum
-            rhs = -(C_ind[:, :, 0] * qd.take(self.ind, 1) + 0.0)
+        if self.dof == 1:
+            i = int(self.ind[0])
+            qd[:, i:i + 1] = qd_ind
+            C_ind = Cq[:, :, i]
+            # the sum of one product, from zero (the signs of zeros) as einsum's
+            rhs = -(C_ind * qd[:, i:i + 1] + 0.0)
         else:
+            qd[:, self.ind] = qd_ind
+            C_ind = Cq.take(self.ind, 2)
             rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
         if motion:
             nu = self._nu(self._drives(motion, N), N)
@@ -731,12 +760,12 @@ class PlanarMultibodySolver:
         if max_sensitivity is None:
             qd[:, self.dep] = _batched_solve(Cq.take(self.dep, 2), rhs, 'velocity analysis')
             return qd
-        b = np.empty(C_ind.shape[:2] + (1 + self.dof,))
+        b = np.empty((N, self.m, 1 + self.dof))
         b[:, :, 0] = rhs
-        np.negative(C_ind, out=b[:, :, 1:])
+        np.negative(C_ind, out=b[:, :, 1] if self.dof == 1 else b[:, :, 1:])
         x = _batched_solve(Cq.take(self.dep, 2), b, 'velocity analysis')
-        qd[:, self.dep] = x[..., 0]
-        ratio = np.maximum.reduce(np.abs(x[..., 1:]), axis=(1, 2)) / self.sensitivity0
+        qd[:, self.dep] = x[:, :, 0]
+        ratio = np.maximum.reduce(np.abs(x[:, :, 1:]).reshape(N, -1), axis=1) / self.sensitivity0
         if np.maximum.reduce(ratio) > max_sensitivity:
             worst = int(ratio.argmax())
             raise MultibodyError(

@@ -55,7 +55,7 @@ import numpy as np
 
 from suspopt.errors import ConfigError
 from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
-from suspopt.multibody.elements.base import BodyPoints, cross, gather, rot_apply
+from suspopt.multibody.elements.base import cross, perp, rot_apply
 from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
 from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver
 
@@ -144,7 +144,11 @@ class SuspensionModule:
         self.chassis_end = chassis[0]
         self._spring_group = s._force_group[self.spring_name]
         self.marker_ref = s.marker_reference()
-        self._wheel_point = BodyPoints(s.mk_body[[self.wheel]], s.mk_u[[self.wheel]])
+        # the wheel marker: its body's coordinates in q, its point in body axes (u, perp(u))
+        b = int(s.mk_body[self.wheel])
+        self._wheel_coords = None if b == s.nb else (3 * b + 1, 3 * b + 2)
+        (ux, uz), (px, pz) = s.mk_u[self.wheel], perp(s.mk_u[self.wheel])
+        self._wheel_u = (float(ux), float(uz), float(px), float(pz))
         self.ind0 = s.q0[s.ind[0]]
         if mount == 'chassis':
             f = s.body_names.index(self.frame)
@@ -158,9 +162,11 @@ class SuspensionModule:
         self.reused = 0  # queries answered from a remembered analysis
         self._poses: OrderedDict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = \
             OrderedDict()
-        self._states: OrderedDict[bytes, tuple[ModuleKinematics, float]] = OrderedDict()
+        self._states: OrderedDict[bytes, tuple] = OrderedDict()  # (kinematics, max |C|, pool)
         #: the last kinematics' (q, mount pose, max |C|): what constraint_residual returns
         self._last_residual: tuple | None = None
+        #: and its (q, the joints' pool at q) (see PlanarMultibodySolver._gamma_all)
+        self._last_pool: tuple | None = None
 
     @staticmethod
     def _remember(memory: OrderedDict, key: bytes, value, size: int) -> None:
@@ -171,18 +177,28 @@ class SuspensionModule:
     def _pose(self, z_W: np.ndarray, guess: np.ndarray | None, mount=None, motion=None):
         """Position analysis at wheel travels ``z_W`` (and mount poses): (q, C_q, the wheel
         marker's vertical displacement (N,), its arm ``A u`` (N, 2), ``max |C|`` (N,))."""
-        key = z_W.tobytes() + b''.join(m.tobytes() for m in (mount or ())[::2])
+        key = z_W.tobytes()
+        if mount is not None:
+            key += mount[0].tobytes() + mount[2].tobytes()
         pose = self._poses.get(key)
         if pose is not None:
             self.reused += 1
             return pose
         s = self.solver
-        q, Cq, res = s._analysed_positions(z_W[:, None] + self.ind0, guess, motion)
-        qb, _, _, arm = self._wheel_point.state(s._ext(q))
-        pose = (q, Cq, qb[:, 0, 1] + arm[:, 0, 1] - self.marker_ref[self.wheel, 1], arm[:, 0],
-                res)
+        q, Cq, res, pool = s._analysed_positions(z_W[:, None] + self.ind0, guess, motion)
+        N = q.shape[0]
+        if self._wheel_coords is None:  # a wheel marker on the ground
+            q_W, arm_x = np.zeros(N), np.zeros(N)
+        else:  # the marker's z and its arm's x: A(φ) u = cos φ u + sin φ perp(u)
+            iz, iphi = self._wheel_coords
+            ux, uz, px, pz = self._wheel_u
+            c, sn = np.cos(q[:, iphi]), np.sin(q[:, iphi])
+            arm_x = c * ux + sn * px
+            q_W = (q[:, iz] + (c * uz + sn * pz)) - self.marker_ref[self.wheel, 1]
+        pose = (q, Cq, q_W, arm_x, res, pool)
         for a in pose:
-            a.flags.writeable = False
+            if a is not None:
+                a.flags.writeable = False
         self._remember(self._poses, key, pose, self.memory)
         return pose
 
@@ -205,26 +221,32 @@ class SuspensionModule:
         if pose is not None:
             pose = tuple(np.ascontiguousarray(np.broadcast_to(p, z_W.shape), dtype=float)
                          for p in pose)
-        key = z_W.tobytes() + v_W.tobytes() + b''.join(p.tobytes() for p in pose or ())
+        key = z_W.tobytes() + v_W.tobytes()
+        if pose is not None:
+            key += b''.join(p.tobytes() for p in pose)
         try:
             known = self._states.get(key)
             if known is not None:
                 self.reused += 1
-                kin, residual = known
+                kin, residual, pool = known
             else:
                 s = self.solver
                 motion = None if pose is None else self.mount_motion(pose)
-                q, Cq, q_W, arm, res = self._pose(z_W, guess, pose, motion)
+                q, Cq, q_W, arm_x, res, pool = self._pose(z_W, guess, pose, motion)
                 qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity,
                                   motion=motion)
                 qd.flags.writeable = False
-                vb = gather(s._ext(qd), self._wheel_point.coords)[:, 0]
-                qd_W = vb[:, 1] + arm[:, 0] * vb[:, 2]  # (r + B u φ)_z of the wheel marker
+                if self._wheel_coords is None:
+                    qd_W = np.zeros(q.shape[0])
+                else:  # (r + B u φ)_z of the wheel marker
+                    iz, iphi = self._wheel_coords
+                    qd_W = qd[:, iz] + arm_x * qd[:, iphi]
                 kin = ModuleKinematics(q_W=q_W, qd_W=qd_W,
                                        state=MultibodyState(q=q, qd=qd, Cq=Cq), pose=pose)
-                residual = float(res.max(initial=0.0))
-                self._remember(self._states, key, (kin, residual), self.memory)
+                residual = float(np.maximum.reduce(res, initial=0.0))
+                self._remember(self._states, key, (kin, residual, pool), self.memory)
             self._last_residual = (kin.state.q, kin.pose, residual)
+            self._last_pool = (kin.state.q, pool)
         finally:
             self.time_s += time.perf_counter() - t0
         # a fresh state object: dynamics() attaches accelerations and multipliers to it
@@ -314,8 +336,10 @@ class SuspensionModule:
             # solve_augmented(q, qd, Q, Cq=state.Cq)
             s.calls['augmented'] += 1
             Cq = s.constraint_jacobian(q) if state.Cq is None else state.Cq
-            state.qdd, state.lam = s._augmented(q, qd, Q, Cq,
-                                                s._gamma_all(q, qd, s._drives(None, N), qe, qde))
+            last = self._last_pool
+            pool = last[1] if last is not None and last[0] is q else None
+            state.qdd, state.lam = s._augmented(
+                q, qd, Q, Cq, s._gamma_all(q, qd, s._drives(None, N), qe, qde, pool))
             F_S = -self._spring_force(qe, qde, values, parts) * e_z
         finally:
             self.time_s += time.perf_counter() - t0

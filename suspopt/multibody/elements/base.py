@@ -307,106 +307,96 @@ class CoincidenceSet:
     same operations in the same order as their groups' methods (the same results bit for
     bit), with a few NumPy calls per batch whatever the number of joints.
 
-    Per state, a pool holds the bodies' coordinates (the ground's zero), the arms of every
-    joint point, the weld angles and a signed zero; each equation is
-    ``((v_1 + v_2) - v_3) - v_4`` of four pool entries, each φ-dependent Jacobian entry
-    ``±`` an arm component and each ``γ`` the difference of two ``a φ̇²`` entries.
-    ``rows``: the constraint row of each group's equations (ne, k); Jacobian entries are
-    placed in C_q (m, 3 nb) flattened, ``row · 3 nb + 3 body + coordinate`` (the ground's
-    are left out)."""
+    Per state, a pool holds the bodies' coordinates (the ground's zero), the arms ``A u``
+    of every joint point and their negatives, the weld angles and the constants
+    ``-0, 0, 1, -1``; each equation is ``((v_1 + v_2) - v_3) - v_4`` of four pool
+    entries, ``C_q`` (m, n) is pool entries (``±1``, ``±`` arm components and zeros; the
+    rows of other joints zero) and each ``γ`` the difference of two ``a φ̇²`` entries.
+    ``rows``: the constraint row of each group's equations (ne, k)."""
 
-    def __init__(self, groups: list[CoincidenceJointGroup], rows: list[np.ndarray], nb: int):
+    def __init__(self, groups: list[CoincidenceJointGroup], rows: list[np.ndarray], nb: int,
+                 m: int):
         ncoord = 3 * (nb + 1)
-        width = ncoord
+        n = 3 * nb
         bodies = np.concatenate([g.bodies.ravel() for g in groups])      # (P,) per point
         u = np.concatenate([g.u.reshape(-1, 2) for g in groups])
         self.n_points = P = bodies.size
         self.phi = np.repeat(3 * bodies + 2, 2)  # per arm component
         self.u, self.u_perp = u.ravel(), perp(u).ravel()
         self.arms = slice(ncoord, ncoord + 2 * P)
-        angles = []
-        eq, jac, gam, const, var = [], [], [], [], []
-        first = 0
-        for g, r in zip(groups, rows):
-            ne = len(g.names)
-            pi = first + 2 * np.arange(ne)                          # point of slot i
-            first += 2 * ne
-            bi, bj = g.bodies[:, 0], g.bodies[:, 1]
-            for e in range(ne):
-                ai, aj = ncoord + 2 * pi[e], ncoord + 2 * (pi[e] + 1)
-                for k in range(2):
-                    eq.append((r[e, k], (3 * bi[e] + k, ai + k, 3 * bj[e] + k, aj + k)))
-                    gam.append((r[e, k], 2 * pi[e] + k, 2 * (pi[e] + 1) + k))
-                    const += [(r[e, k], bi[e], k, 1.0), (r[e, k], bj[e], k, -1.0)]
-                # ∂C_x/∂φ = -a_z (i), +a_z (j); ∂C_z/∂φ = +a_x (i), -a_x (j)
-                var += [(r[e, 0], bi[e], ai + 1, -1.0), (r[e, 0], bj[e], aj + 1, 1.0),
-                        (r[e, 1], bi[e], ai, 1.0), (r[e, 1], bj[e], aj, -1.0)]
-                if g.angle_equation:
-                    angles.append(g.angle[e])
-                    eq.append((r[e, 2], (3 * bi[e] + 2, None, 3 * bj[e] + 2,
-                                         ('angle', len(angles) - 1))))
-                    gam.append((r[e, 2], None, None))
-                    const += [(r[e, 2], bi[e], 2, 1.0), (r[e, 2], bj[e], 2, -1.0)]
-        width += 2 * P
-        self.const_slice = slice(width, width + len(angles) + 1)
-        self.constants = np.array(angles + [-0.0])                   # v + (-0.0) == v
-        negzero = width + len(angles)
-        self.width = width + len(angles) + 1
+        self.negative_arms = slice(ncoord + 2 * P, ncoord + 4 * P)
+        angles = [a for g in groups if g.angle_equation for a in g.angle]
+        start = ncoord + 4 * P
+        ANGLE, NEGZERO, ZERO, ONE, MINUS = (start, start + len(angles), start + len(angles) + 1,
+                                            start + len(angles) + 2, start + len(angles) + 3)
+        self.width = start + len(angles) + 4
+        self.template = np.zeros(self.width)
+        self.template[ANGLE:NEGZERO] = angles
+        self.template[NEGZERO:] = (-0.0, 0.0, 1.0, -1.0)  # v + (-0.0) == v
+        eq, gam = [], []
+        cq = np.full(m * n, ZERO)  # C_q from the pool
 
-        def pool(x):
-            if x is None:
-                return negzero
-            if isinstance(x, tuple):
-                return width + x[1]
-            return int(x)
+        def put(r, b, c, src):
+            if b < nb:
+                cq[r * n + 3 * b + c] = src
+        first = angle = 0
+        for g, r in zip(groups, rows):
+            for e in range(len(g.names)):
+                bi, bj = g.bodies[e]
+                pi, pj = first, first + 1                           # points of both slots
+                first += 2
+                ai, aj = ncoord + 2 * pi, ncoord + 2 * pj            # their arms (x, z)
+                for k in range(2):
+                    eq.append((r[e, k], (3 * bi + k, ai + k, 3 * bj + k, aj + k)))
+                    gam.append((r[e, k], (2 * pi + k, 2 * pj + k)))
+                    put(r[e, k], bi, k, ONE)
+                    put(r[e, k], bj, k, MINUS)
+                # ∂C_x/∂φ = -a_z (i), +a_z (j); ∂C_z/∂φ = +a_x (i), -a_x (j)
+                put(r[e, 0], bi, 2, ai + 1 + 2 * P)
+                put(r[e, 0], bj, 2, aj + 1)
+                put(r[e, 1], bi, 2, ai)
+                put(r[e, 1], bj, 2, aj + 2 * P)
+                if g.angle_equation:
+                    eq.append((r[e, 2], (3 * bi + 2, NEGZERO, 3 * bj + 2, ANGLE + angle)))
+                    gam.append((r[e, 2], (2 * P, 2 * P)))
+                    put(r[e, 2], bi, 2, ONE)
+                    put(r[e, 2], bj, 2, MINUS)
+                    angle += 1
         order = np.argsort([row for row, _ in eq], kind='stable')
         self.rows = np.array([eq[o][0] for o in order], dtype=int)
-        self.terms = np.array([[pool(t) for t in eq[o][1]] for o in order], dtype=int).T
-        # γ: entries of the pool [a φ̇² of every point (2P), 0]
-        zero = 2 * P
-        self.gamma_terms = np.array([[zero if t is None else t for t in gam[o][1:]]
-                                     for o in order], dtype=int).T
+        self.terms = np.array([eq[o][1] for o in order], dtype=int).T
+        # γ: entries of [a φ̇² of every point (2P), 0]
+        self.gamma_terms = np.array([gam[o][1] for o in order], dtype=int).T
+        self.jacobian_source = cq
         self._ncoord = ncoord
-        n = 3 * nb
-        #: the constant entries of C_q: (row, column, value)
-        self.jac_const = [(r, 3 * b + c, v) for r, b, c, v in const if b < nb]
-        var = [x for x in var if x[1] < nb]
-        self.jac_var = np.array([r * n + 3 * b + 2 for r, b, _, _ in var], dtype=int)
-        self.jac_src = np.array([src for _, _, src, _ in var], dtype=int)
-        self.jac_sign = np.array([sg for _, _, _, sg in var])
-
-    def _padded(self, q: np.ndarray) -> np.ndarray:
-        """Body coordinates (N, n) or (N, 3 (nb + 1)) with the ground's zeros."""
-        if q.shape[1] == self._ncoord:
-            return q
-        out = np.zeros((q.shape[0], self._ncoord))
-        out[:, :q.shape[1]] = q
-        return out
 
     def pool(self, q: np.ndarray) -> np.ndarray:
         """The pool (N, width) at body coordinates ``q`` (N, n) (the ground's may follow)."""
-        N, n = q.shape
+        N = q.shape[0]
         v = np.empty((N, self.width))
-        v[:, :n] = q
-        v[:, n:self._ncoord] = 0.0
+        v[...] = self.template
+        v[:, :q.shape[1]] = q
         phi = v.take(self.phi, axis=1)
         arm = v[:, self.arms]
         np.multiply(np.cos(phi), self.u, out=arm)        # A u = cos φ u + sin φ perp(u)
         arm += np.sin(phi) * self.u_perp
-        v[:, self.const_slice] = self.constants
+        np.negative(arm, out=v[:, self.negative_arms])
         return v
 
-    def residual_jacobian(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The equations (N, len(rows)) and the φ-dependent Jacobian entries (N, len(jac_var))."""
+    def residual(self, v: np.ndarray) -> np.ndarray:
+        """The equations (N, len(rows)) from the pool."""
         t = v.take(self.terms, axis=1)
-        return (((t[:, 0] + t[:, 1]) - t[:, 2]) - t[:, 3],
-                v.take(self.jac_src, axis=1) * self.jac_sign)
+        return ((t[:, 0] + t[:, 1]) - t[:, 2]) - t[:, 3]
 
-    def gamma(self, v: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    def jacobian(self, v: np.ndarray) -> np.ndarray:
+        """``C_q`` (N, m · n) flattened from the pool: these joints' rows, zeros elsewhere."""
+        return v.take(self.jacobian_source, axis=1)
+
+    def gamma(self, v: np.ndarray, qde: np.ndarray) -> np.ndarray:
         """``γ`` of the equations (N, len(rows)), from the pool at q and the velocities
-        (as the positions in :meth:`pool`)."""
+        ``qde`` (N, nb + 1, 3)."""
         N = v.shape[0]
-        w = self._padded(qd).take(self.phi, axis=1)
+        w = qde.reshape(N, -1).take(self.phi, axis=1)
         g = np.empty((N, 2 * self.n_points + 1))
         np.multiply(v[:, self.arms], w ** 2, out=g[:, :-1])
         g[:, -1] = 0.0
