@@ -1,6 +1,7 @@
 """Benchmark: mixed-fidelity optimization from the low-fidelity optimum (issue 5).
 
     python benchmarks/bench_mixed.py [--repeat 3] [--segments 80] [--mount ground|chassis|both]
+    python benchmarks/bench_mixed.py --mechanism macpherson [--repeat 5]
 
 Prints the one-time coloring cost, then over repeats (cached coloring): setup, solve,
 total, IPOPT iterations, black-box calls per Jacobian and in total, and the share of the
@@ -8,6 +9,10 @@ solve spent inside the multibody solver; plus the low-fidelity solve on the same
 the mixed/low ratio. ``--mount chassis`` benchmarks the chassis-mounted modules (issue
 16); ``both`` runs the two mounts interleaved, repeat by repeat, from the same
 low-fidelity optimum and prints the chassis/ground ratio of the medians.
+``--mechanism NAME`` (built-in name or TOML path, on both axles) measures that topology
+side by side with the double wishbone in the same run, interleaved the same way, and
+prints the NAME/double-wishbone ratios of the medians (issue 12's target: the MacPherson
+at most 1.5x the double wishbone).
 """
 from __future__ import annotations
 
@@ -21,7 +26,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, table, timed_optimize  # noqa: E402
 
-from suspopt.config import StudyConfig  # noqa: E402
+from suspopt.config import StudyConfig, config_from_dict  # noqa: E402
 from suspopt.multibody.components import (ChassisMountDynamicsComp,  # noqa: E402
                                           SuspensionDynamicsComp, SuspensionKinematicsComp)
 from suspopt.study import optimize, resolve_scales  # noqa: E402
@@ -88,51 +93,73 @@ def _report(label: str, runs: list[dict], cold: dict, segments: int) -> None:
           f'{segments * 5} nodes\n')
 
 
+def with_mechanism(cfg: StudyConfig, mechanism: str) -> StudyConfig:
+    d = cfg.to_dict()
+    for axle in ('front', 'rear'):
+        d['vehicle'][axle]['mechanism'] = mechanism
+    return config_from_dict(d)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--repeat', type=int, default=3)
     ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
     ap.add_argument('--mount', choices=('ground', 'chassis', 'both'), default='ground')
+    ap.add_argument('--mechanism', metavar='NAME',
+                    help='measure this mechanism (both axles) side by side with the double '
+                         'wishbone')
     args = ap.parse_args()
     cfg = StudyConfig()
     cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
                                                         segments=args.segments))
     mounts = ('ground', 'chassis') if args.mount == 'both' else (args.mount,)
-    cfgs = {m: cfg.replace(multibody=dataclasses.replace(cfg.multibody, mount=m))
-            for m in mounts}
+    mechs = ['double_wishbone'] + ([args.mechanism] if args.mechanism
+                                   and args.mechanism != 'double_wishbone' else [])
+    cfgs = {(mech, m): with_mechanism(cfg, mech).replace(
+        multibody=dataclasses.replace(cfg.multibody, mount=m)) for mech in mechs for m in mounts}
+    label = {key: (f'{key[0]}, ' if len(mechs) > 1 else '') + f'mount {key[1]}' for key in cfgs}
     scales = resolve_scales(cfg)
     print(f'# mixed-fidelity optimize from the low-fidelity optimum, {args.segments} x 5 grid, '
-          f'mount {args.mount} — {machine()}, suspopt {git_revision()}\n')
+          f"mount {args.mount}, {', '.join(mechs)} — {machine()}, suspopt {git_revision()}\n")
     with fresh_cache():
         low = optimize(cfg, 'low', scales=scales)
         start = low['design']
-        cold = {m: run_once(cfgs[m], scales, start) for m in mounts}
-        runs = {m: [] for m in mounts}
-        for _ in range(args.repeat):  # interleaved: the machine's load hits both alike
-            for m in mounts:
-                runs[m].append(run_once(cfgs[m], scales, start))
+        cold = {k: run_once(c, scales, start) for k, c in cfgs.items()}
+        runs = {k: [] for k in cfgs}
+        for _ in range(args.repeat):  # interleaved: the machine's load hits all alike
+            for k, c in cfgs.items():
+                runs[k].append(run_once(c, scales, start))
         lows = [run_once(cfg, scales, cfg.design.initial(), 'low')
                 for _ in range(args.repeat)]
-    for m in mounts:
-        _report(f'mount {m}', runs[m], cold[m], args.segments)
+    for k in cfgs:
+        _report(label[k], runs[k], cold[k], args.segments)
     lo = statistics.median(r['total'] for r in lows)
     print(f'low fidelity on the same grid (from the initial design): total {lo:.2f} s, '
           f"{statistics.median(r['iterations'] for r in lows):.0f} iterations")
-    for m in mounts:
-        mi = statistics.median(r['total'] for r in runs[m])
-        it = statistics.median(r['iterations'] for r in runs[m])
-        print(f'mount {m}: mixed / low total (medians): {mi / lo:.2f}x; per iteration: '
+    for k in cfgs:
+        mi = statistics.median(r['total'] for r in runs[k])
+        it = statistics.median(r['iterations'] for r in runs[k])
+        print(f'{label[k]}: mixed / low total (medians): {mi / lo:.2f}x; per iteration: '
               f"{(mi / it) / (lo / statistics.median(r['iterations'] for r in lows)):.2f}x")
-    if len(mounts) == 2:
-        med = {m: {k: statistics.median(r[k] for r in runs[m]) for k in ('solve', 'total',
-                                                                          'iterations')}
-               for m in mounts}
-        ratio = {k: med['chassis'][k] / med['ground'][k] for k in ('solve', 'total')}
-        per_it = ratio['solve'] * med['ground']['iterations'] / med['chassis']['iterations']
-        print(f"\nchassis / ground mount (medians): solve {ratio['solve']:.2f}x, total "
-              f"{ratio['total']:.2f}x, solve per IPOPT iteration {per_it:.2f}x "
-              f"(iterations {med['chassis']['iterations']:.0f} vs "
-              f"{med['ground']['iterations']:.0f})")
+    med = {k: {q: statistics.median(r[q] for r in runs[k]) for q in ('solve', 'total',
+                                                                      'iterations', 'mbd_s')}
+           for k in cfgs}
+
+    def ratio(a, b, what: str) -> None:
+        r = {q: med[b][q] / med[a][q] for q in ('solve', 'total', 'mbd_s')}
+        per_it = r['solve'] * med[a]['iterations'] / med[b]['iterations']
+        print(f"\n{what} (medians, measured side by side): solve {r['solve']:.2f}x, total "
+              f"{r['total']:.2f}x, solve per IPOPT iteration {per_it:.2f}x (iterations "
+              f"{med[b]['iterations']:.0f} vs {med[a]['iterations']:.0f}), time inside the "
+              f"multibody solver {r['mbd_s']:.2f}x")
+
+    for mech in mechs:
+        if len(mounts) == 2:
+            ratio((mech, 'ground'), (mech, 'chassis'), f'{mech}: chassis / ground mount')
+    for m in mounts:
+        if len(mechs) == 2:
+            ratio(('double_wishbone', m), (mechs[1], m),
+                  f'mount {m}: {mechs[1]} / double_wishbone')
 
 
 if __name__ == '__main__':

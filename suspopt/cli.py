@@ -4,6 +4,7 @@
     suspopt optimize  --fidelity low|mixed [--start DESIGN] [--out DIR] ...
     suspopt evaluate  --fidelity low|mixed [--design DESIGN] [--method ...]
     suspopt pareto    [--fidelity low|mixed] [--points N] [--out DIR] ...   comfort vs road holding
+    suspopt compare   [--mechanisms A,B,C] [--out DIR] ...  suspension topologies side by side
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
     suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
@@ -147,15 +148,24 @@ def _verdict(res: dict[str, Any]) -> str:
 
 
 def _summary(res: dict[str, Any]) -> str:
-    d, J, s = res['design'], res['terms'], res['scales']
-    f = res['objective'] if res['objective'] is not None else res.get('objective_at_stop')
+    d, s = res['design'], res['scales']
     lines = [f"{res['fidelity']}-fidelity {res['mode']} ({res['method']}): "
-             f"{_verdict(res)} — {res['status']}",
-             '  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
-             f"  objective f = {f:.6f}{'' if res['success'] else ' (not converged)'}   "
-             + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items()),
-             f"  scales ({res['normalization']}) "
-             + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())]
+             f"{_verdict(res)} — {res['status']}"]
+    if res['success']:
+        J = res['terms']
+        lines += ['  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+                  f"  objective f = {res['objective']:.6f}   "
+                  + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())]
+    else:  # what IPOPT stopped at is not a result: never printed as one
+        stop, J = res.get('objective_at_stop'), res.get('terms_at_stop') or {}
+        lines += ['  design at the stop (not a result)   '
+                  + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+                  '  objective f: none (not converged'
+                  + (f'; {stop:.6g} at the stop' if stop is not None else '') + ')'
+                  + ('   at the stop: ' + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())
+                     if J else '')]
+    lines.append(f"  scales ({res['normalization']}) "
+                 + '  '.join(f'{k} = {v:.5g}' for k, v in s.items()))
     v = res.get('verification') or {}
     if 'max_rel_diff' in v:
         lines.append(f"  time marching f = {v['objective']:.6f}, largest relative difference "
@@ -201,7 +211,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log(f'optimizing the {args.fidelity}-fidelity model; results in {out.path}')
-        res = optimize(config, args.fidelity, start=start, out_dir=out.path,
+        res = optimize(config, args.fidelity, start=start, out_dir=out,
                        progress=progress, verify=not args.no_verify)
     print(_summary(res))
     return _check_result(res)
@@ -290,6 +300,39 @@ def cmd_pareto(args: argparse.Namespace) -> int:
               + ', '.join(f"{p['alpha']:.3f}" for p in unverified), file=sys.stderr)
         return NotVerified.exit_code
     return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    """The topology study (suspopt.compare): every topology's mixed-fidelity optimum, the
+    cross table of every optimum in every model, kinematic curves."""
+    from suspopt.compare import exit_code, parse_topologies, run_compare, topology_config
+    from suspopt.results import RunDirectory
+    from suspopt.study import StepFailed
+    config = _config(args)
+    for front, rear in parse_topologies(args.mechanisms):  # bad input before any work
+        topology_config(config, front, rear)
+    with RunDirectory(args.out, args.overwrite) as out:
+        progress, log = _printer(args.quiet, config.design_names())
+        log(f'topology study of {args.mechanisms}; results in {out.path}')
+        try:
+            data = run_compare(config, out, args.mechanisms, progress=progress, log=log,
+                               verify=not args.no_verify)
+        except StepFailed as err:
+            print(f'suspopt: error: {err}; no topology can start from it; partial results '
+                  f'in {out.path}', file=sys.stderr)
+            return 1
+    print((out.path / 'table.md').read_text())
+    print(f"results: {out.path}/compare.json, table.md, figures/ ({data['wall_time_s']:.1f} s)")
+    code = exit_code(data)
+    if code == 1:
+        for f in data['failures']:
+            where = f['model'] + (f" at {f['design']}" if f.get('design') else '')
+            print(f"suspopt: error: {f['what']} failed in {where}: {f['status']} "
+                  f"{f.get('message', '')}".rstrip() + '; the other results are kept',
+                  file=sys.stderr)
+    elif code == NotVerified.exit_code:
+        print(f"suspopt: error: {data['warnings'][-1]}", file=sys.stderr)
+    return code
 
 
 def cmd_robust(args: argparse.Namespace) -> int:
@@ -451,6 +494,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help='comfort shares 0 ... 1 (default: %(default)s)')
     run_opts(p, 'results/pareto')
     p.set_defaults(func=cmd_pareto)
+
+    p = sub.add_parser('compare', help='suspension topologies side by side: each one\'s '
+                                       'mixed-fidelity optimum, every optimum in every model',
+                       epilog=EPILOG)
+    p.add_argument('--mechanisms', default='double_wishbone,sla_double_wishbone,macpherson',
+                   metavar='A,B,...',
+                   help='topologies: built-in names or mechanism TOML paths (relative to '
+                        'the working directory), each on both axles, or FRONT+REAR (default: '
+                        '%(default)s)')
+    common(p)
+    run_opts(p, 'results/compare')
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser('robust', help='robust design over the study file\'s scenarios: the '
                                       'robust optimum against each scenario\'s own',

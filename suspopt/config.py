@@ -45,12 +45,37 @@ AGGREGATES = ('sum', 'max')
 MOUNTS = ('ground', 'chassis')
 #: The paper's printed normalization factors (§4.2), for the half car's four terms.
 PAPER_SCALES = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
-#: Largest NLP suspopt builds: nodes × states (a guard against a typo, e.g. 1e6 s).
-MAX_NLP_VARIABLES = 2_000_000
+#: Largest NLP suspopt builds, all scenarios together: nodes × states (a guard against a
+#: typo such as segments = 100000: the build's time and memory grow faster than its size)
+MAX_NLP_VARIABLES = 150_000
+#: Design variables' largest plausible values by kind (a guard against a unit typo).
+DESIGN_LIMITS = {'k_S': 1e7, 'c_S': 1e6, 'k_R': 1e7}
 
 
 def _check(kind: str, **kw: Any) -> dict[str, Any]:
     return {'check': kind, **kw}
+
+
+def _plausible(lo: float, hi: float, unit: str, what: str, hint: str = '',
+               **kw: Any) -> dict[str, Any]:
+    """A number that must lie in [lo, hi] (a road vehicle's range): outside it, it is a
+    typo (a unit, a missing digit), refused before any work."""
+    return {'range': (lo, hi, unit, what, hint), **kw}
+
+
+#: maneuver limits (also for scenarios)
+SPEED_RANGE = (0.0, 150.0, 'm/s', "a road vehicle's speed",
+               'speeds are in m/s: 100 km/h is 27.8 m/s')
+HORIZON_RANGE = (0.0, 600.0, 's', 'a maneuver (collocation resolves a few tens of seconds)', '')
+
+
+def _range_problem(val: float, limits: tuple) -> str | None:
+    lo, hi, unit, what, hint = limits
+    if lo <= val <= hi:
+        return None
+    u = f' {unit}' if unit else ''
+    return (f'{val:g}{u} is implausible for {what}: expected {lo:g} to {hi:g}{u}'
+            + (f' ({hint})' if hint else ' (a typo?)'))
 
 
 # ---------------------------------------------------------------------------- vehicle
@@ -59,12 +84,16 @@ class AxleConfig:
     """One axle: position, wheel (per corner), tyre, multibody mechanism, track width and
     anti-roll bar (full car)."""
 
-    axle_position: float = field(default=1.271, metadata={'doc': 'a_i [m], + ahead of the CG'})
-    wheel_mass: float = field(default=120.0, metadata=_check('positive', doc='m_i [kg]'))
-    tyre_stiffness: float = field(default=200000.0, metadata=_check('positive', doc='k_Ti [N/m]'))
+    axle_position: float = field(default=1.271, metadata=_plausible(
+        -20.0, 20.0, 'm', 'an axle position', doc='a_i [m], + ahead of the CG'))
+    wheel_mass: float = field(default=120.0, metadata=_plausible(
+        10.0, 2000.0, 'kg', "a road vehicle's wheel", check='positive', doc='m_i [kg]'))
+    tyre_stiffness: float = field(default=200000.0, metadata=_plausible(
+        1e4, 1e7, 'N/m', 'a tyre', check='positive', doc='k_Ti [N/m]'))
     mechanism: str = field(default='double_wishbone',
                            metadata={'doc': 'built-in name or path of a mechanism TOML'})
-    track: float = field(default=0.0, metadata={'doc': 'full car: wheel track width [m]'})
+    track: float = field(default=0.0, metadata=_plausible(
+        0.0, 5.0, 'm', 'a wheel track', doc='full car: wheel track width [m]'))
     anti_roll_bar: bool = field(default=False,
                                 metadata={'doc': 'full car: a bar whose rate k_R is designed'})
 
@@ -74,11 +103,12 @@ class VehicleConfig:
     """The car: the half car of SPEC §2 (paper Table 1) or a full car."""
 
     model: str = 'half_car'
-    chassis_mass: float = field(default=1414.0, metadata=_check('positive', doc='M [kg]'))
-    chassis_pitch_inertia: float = field(default=2782.0,
-                                         metadata=_check('positive', doc='I [kg m^2]'))
-    chassis_roll_inertia: float = field(default=0.0,
-                                        metadata={'doc': 'full car: I_x [kg m^2]'})
+    chassis_mass: float = field(default=1414.0, metadata=_plausible(
+        50.0, 1e5, 'kg', "a road vehicle's sprung mass", check='positive', doc='M [kg]'))
+    chassis_pitch_inertia: float = field(default=2782.0, metadata=_plausible(
+        1.0, 1e7, 'kg m^2', 'a pitch inertia', check='positive', doc='I [kg m^2]'))
+    chassis_roll_inertia: float = field(default=0.0, metadata=_plausible(
+        0.0, 1e7, 'kg m^2', 'a roll inertia', doc='full car: I_x [kg m^2]'))
     front: AxleConfig = field(default_factory=AxleConfig)
     rear: AxleConfig = field(default_factory=lambda: AxleConfig(axle_position=-1.713))
 
@@ -103,8 +133,10 @@ class VehicleConfig:
 class ManeuverConfig:
     """Constant-speed drive over the road for the time horizon (SPEC §1, §4)."""
 
-    speed: float = field(default=10.0, metadata=_check('positive', doc='v [m/s]'))
-    horizon: float = field(default=5.0, metadata=_check('positive', doc='T [s]'))
+    speed: float = field(default=10.0, metadata={'range': SPEED_RANGE, 'check': 'positive',
+                                                  'doc': 'v [m/s]'})
+    horizon: float = field(default=5.0, metadata={'range': HORIZON_RANGE, 'check': 'positive',
+                                                  'doc': 'T [s]'})
 
 
 # ---------------------------------------------------------------------------- design
@@ -220,8 +252,9 @@ class MultibodyConfig:
     coupled to the chassis (``mount``, see :mod:`suspopt.multibody.suspension`)."""
 
     fd_form: str = 'forward'
-    fd_step: float = field(default=1e-6, metadata=_check(
-        'positive', doc='absolute step in the SI units of every input (m, m/s, N)'))
+    fd_step: float = field(default=1e-6, metadata=_plausible(
+        1e-10, 1e-2, '', 'a finite-difference step (SI units: m, m/s, N)', check='positive',
+        doc='absolute step in the SI units of every input (m, m/s, N)'))
     mount: str = field(default='ground', metadata={
         'doc': "ground: the frame is fixed and the chassis feels the spring only (the "
                "paper's coupling); chassis: the frame moves with the chassis and the "
@@ -314,13 +347,6 @@ class StudyConfig:
     def replace(self, **changes: Any) -> 'StudyConfig':
         return dataclasses.replace(self, **changes)
 
-    def with_design(self, **initial: float) -> 'StudyConfig':
-        """A copy whose design variables start from the given values."""
-        vs = dict(self.design.variables)
-        for name, val in initial.items():
-            vs[name] = dataclasses.replace(vs[name], initial=float(val))
-        return dataclasses.replace(self, design=dataclasses.replace(self.design, variables=vs))
-
     def with_weights(self, weights: dict[str, float]) -> 'StudyConfig':
         return dataclasses.replace(self, objective=dataclasses.replace(
             self.objective, weights={t: float(weights.get(t, 0.0)) for t in self.terms()}))
@@ -379,6 +405,8 @@ def _parse_value(tp: Any, val: Any, key: str, errs: _Errors, meta: dict) -> Any:
             errs.add(key, f'must be a finite number, got {val}')
         elif meta.get('check') == 'positive' and val <= 0.0:
             errs.add(key, f'must be > 0, got {val:g}')
+        elif 'range' in meta and (problem := _range_problem(val, meta['range'])):
+            errs.add(key, problem)
         return val
     if tp is int:
         if isinstance(val, bool) or not isinstance(val, int):
@@ -548,7 +576,7 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
     cfg = dataclasses.replace(cfg, design=design, objective=dataclasses.replace(
         cfg.objective, weights=weights, scales=scales))
     cfg = _resolve_paths(cfg, base_dir)
-    errs.extend(_semantic_checks(cfg))
+    errs.extend(_semantic_checks(cfg, sized=not errs))
     if errs:
         raise ConfigError(list(errs))
     # canonical road descriptions: the profile with all of its parameters
@@ -611,7 +639,9 @@ def _resolve_paths(cfg: StudyConfig, base_dir: str | Path | None) -> StudyConfig
                        for s in cfg.scenario))
 
 
-def _semantic_checks(cfg: StudyConfig) -> list[str]:
+def _semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
+    """Problems across keys; with ``sized`` (every value read), the grid and NLP size
+    too (not with values already refused: their messages would repeat the cause)."""
     errs = _Errors()
     v = cfg.vehicle
     if math.isfinite(v.wheelbase) and v.wheelbase <= 0.0:
@@ -641,6 +671,11 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
         vals = (dv.initial, dv.lower, dv.upper)
         if not all(math.isfinite(x) for x in vals):
             continue
+        limit = DESIGN_LIMITS[design_kind(name)]
+        for which, x in (('initial', dv.initial), ('lower', dv.lower), ('upper', dv.upper)):
+            if x > limit:
+                errs.add(f'{key}.{which}', f'{x:g} {DESIGN_UNITS[design_kind(name)]} is '
+                         f'implausible for a road vehicle: at most {limit:g} (a typo?)')
         if design_kind(name) == 'k_R':
             if dv.lower < 0.0:
                 errs.add(f'{key}.lower', f'must be >= 0 (a bar rate), got {dv.lower:g}')
@@ -698,10 +733,12 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
         if sc.name in names:
             errs.add(f'{key}.name', f'duplicate scenario name {sc.name!r}')
         names.add(sc.name)
-        for fld in ('speed', 'horizon'):
+        for fld, limits in (('speed', SPEED_RANGE), ('horizon', HORIZON_RANGE)):
             val = getattr(sc, fld)
             if not (math.isfinite(val) and val >= 0.0):
                 errs.add(f'{key}.{fld}', f'must be > 0 (or absent), got {val:g}')
+            elif val and (problem := _range_problem(val, limits)):
+                errs.add(f'{key}.{fld}', problem)
         if not (math.isfinite(sc.weight) and sc.weight > 0.0):
             errs.add(f'{key}.weight', f'must be > 0, got {sc.weight:g}')
         if sc.order and sc.order < 2:
@@ -712,7 +749,7 @@ def _semantic_checks(cfg: StudyConfig) -> list[str]:
             length = (sc.speed or cfg.maneuver.speed) * (sc.horizon or cfg.maneuver.horizon)
             errs.extend(_road_checks(sc.road, f'{key}.road', length, n_tracks))
     errs.extend(_mechanism_checks(cfg))
-    if not errs:
+    if not errs and sized:
         errs.extend(_size_checks(cfg))
     return list(errs)
 
@@ -728,20 +765,31 @@ def _segments_check(segments: Any, key: str) -> list[str]:
 
 
 def _size_checks(cfg: StudyConfig) -> list[str]:
-    """Refuse an NLP too large to build (a resource estimate before any work)."""
-    from suspopt.transcription.grid import nlp_size
+    """Refuse a grid that cannot represent the motion (too few nodes per period of the
+    wheel hop or the road, :func:`~suspopt.transcription.grid.grid_problems`) and an NLP
+    too large to build (a resource estimate), before any work."""
+    from suspopt.transcription.grid import grid_problems, nlp_size
     errs = []
     try:
         scenarios = cfg.scenarios()
     except ConfigError as err:
         return err.problems
+    sizes = []
     for i, sc in enumerate(scenarios):
-        n = nlp_size(cfg, sc)
-        if n > MAX_NLP_VARIABLES:
-            where = f'scenario[{i}]' if cfg.scenario else 'transcription.segments'
-            errs.append(f'{where}: {sc.segments} segments of order {sc.order} over '
-                        f'{sc.horizon:g} s make {n:.3g} NLP variables (at most '
-                        f'{MAX_NLP_VARIABLES:.3g}); check maneuver.horizon and the grid')
+        own = cfg.scenario[i].segments if cfg.scenario else 0
+        key = f'scenario[{i}].segments' if own else 'transcription.segments'
+        if (own or cfg.transcription.segments) != 'auto':
+            errs.extend(grid_problems(cfg, sc, key if not cfg.scenario or own else
+                                      f'{key} (scenario {sc.name!r})'))
+        sizes.append((nlp_size(cfg, sc), sc, key))
+    total = sum(n for n, _, _ in sizes)
+    if total > MAX_NLP_VARIABLES:
+        n, sc, key = max(sizes, key=lambda x: x[0])
+        everything = f' ({total:.3g} with all scenarios)' if len(sizes) > 1 else ''
+        errs.append(f'{key}: {sc.segments} segments of order {sc.order} over {sc.horizon:g} s '
+                    f'make {n:.3g} NLP variables{everything}, at most {MAX_NLP_VARIABLES:.3g} '
+                    'can be built in reasonable time and memory; check maneuver.horizon and '
+                    'the grid')
     return errs
 
 
@@ -750,6 +798,8 @@ def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int)
     if not isinstance(road, dict):
         return [f'{where}: must be a table, got {road!r}']
     kind = road.get('profile', 'two_bumps')
+    if not isinstance(kind, str):
+        return [f'{where}.profile: must be a string (a profile name), got {kind!r}']
     if kind == TWO_TRACKS:
         if n_tracks != 2:
             return [f'{where}.profile: {TWO_TRACKS} needs a car with two wheel tracks '
@@ -806,22 +856,48 @@ def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int)
     return make_road(_typed_road({'profile': kind, **params})).validate(length, where)
 
 
+#: a wheel rate below this fraction of the spring rate at the reference pose is zero:
+#: the linkage barely moves the spring (motion ratio below 0.03)
+WHEEL_RATE_FLOOR = 1e-3
+
+
 def _mechanism_checks(cfg: StudyConfig) -> list[str]:
-    from suspopt.multibody.mechanism import load_mechanism
+    """Every mechanism loads, passes its travel range, and stands: a positive wheel rate at
+    the reference pose for every spring rate of its axle's design range."""
+    from suspopt.multibody.kinematics import reference_wheel_rate
+    from suspopt.multibody.mechanism import load_mechanism, mechanism_path
     from suspopt.multibody.solver import PlanarMultibodySolver
     errs = []
-    seen: dict[str, list[str]] = {}
-    for axle in ('front', 'rear'):
+    seen: dict[str, Any] = {}
+    for i, axle in enumerate(('front', 'rear')):
         name = getattr(cfg.vehicle, axle).mechanism
-        if name in seen:
-            errs.extend(f'vehicle.{axle}.mechanism: {m}' for m in seen[name])
+        key = f'vehicle.{axle}.mechanism'
+        if name not in seen:
+            try:
+                mech = load_mechanism(name, suspension=True)
+                seen[name] = (*reference_wheel_rate(mech, PlanarMultibodySolver(mech)),
+                              mech.roles['spring'])
+            except ConfigError as err:
+                seen[name] = err.problems
+        if isinstance(seen[name], list):
+            errs.extend(f'{key}: {m}' for m in seen[name])
             continue
-        try:
-            PlanarMultibodySolver(load_mechanism(name, suspension=True))
-            seen[name] = []
-        except ConfigError as err:
-            seen[name] = err.problems
-            errs.extend(f'vehicle.{axle}.mechanism: {m}' for m in err.problems)
+        a, b, mr, spring = seen[name]
+        ks = [n for n in cfg.design.names if design_kind(n) == 'k_S' and n[3] == str(i + 1)]
+        for n in ks:
+            dv = cfg.design[n]
+            bad = [k for k in (dv.lower, dv.upper)
+                   if math.isfinite(k) and not a * k + b > WHEEL_RATE_FLOOR * k]
+            if bad:
+                why = ('the spring does not deflect with the wheel travel' if abs(mr) < 0.03
+                       else 'the other springs make it unstable')
+                rate, mr = a * bad[0] + b + 0.0, mr + 0.0  # no "-0"
+                errs.append(f'{key}: {mechanism_path(name)}: suspension.spring: wheel rate '
+                            f'{rate:.4g} N/m at the reference pose for {n} = {bad[0]:g} N/m '
+                            f'(motion ratio {mr:.3g}; {why}): the linkage is statically '
+                            'unstable; it needs a positive wheel rate over '
+                            f'[{dv.lower:g}, {dv.upper:g}] (force {spring!r})')
+                break
     return errs
 
 

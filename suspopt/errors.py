@@ -4,7 +4,7 @@ The command line's exit codes:
 
 * 0 — success (every result verified by time marching, or verification skipped on request);
 * 1 — ``ModelError``: a model evaluation failed (NaN/inf, singular or non-converged
-  multibody configuration), or IPOPT did not converge (``OptimizationFailed``);
+  multibody configuration), or IPOPT did not converge (the result says so);
 * 2 — ``ConfigError``: bad input (study file, mechanism or road data, arguments, a damaged
   results directory), detected before any work starts;
 * 3 — ``NotVerified``: a result whose collocation and time marching disagree beyond the
@@ -13,8 +13,6 @@ The command line's exit codes:
 * 130 — interrupted (Ctrl-C or SIGTERM); what finished is kept.
 """
 from __future__ import annotations
-
-from typing import Any
 
 
 class SuspoptError(Exception):
@@ -39,14 +37,6 @@ class ModelError(SuspoptError, RuntimeError):
 
 class MultibodyError(ModelError):
     """The multibody solver failed: singular constraint Jacobian, Newton not converged, NaN."""
-
-
-class OptimizationFailed(SuspoptError, RuntimeError):
-    """IPOPT stopped without converging; ``result`` holds what was computed."""
-
-    def __init__(self, message: str, result: Any = None):
-        super().__init__(message)
-        self.result = result
 
 
 class NotVerified(SuspoptError):

@@ -21,8 +21,8 @@ from typing import Any, Callable
 import numpy as np
 
 from suspopt.config import StudyConfig
-from suspopt.results import RunDirectory, write_json
-from suspopt.study import Progress, evaluate, optimize, resolve_scales
+from suspopt.results import RunDirectory, keep_inputs, write_json
+from suspopt.study import Interrupted, Progress, evaluate, optimize, resolve_scales
 from suspopt.transcription.problem import VehicleProblem
 
 
@@ -46,6 +46,20 @@ def comfort_and_road_holding(terms: dict[str, float],
             sum(terms[t] / scales[t] for t in wheels) / len(wheels))
 
 
+def _point(alpha: float, weights: dict[str, float], res: dict[str, Any],
+           scales: dict[str, float]) -> dict[str, Any]:
+    """One point of the front from an optimization's record."""
+    ok = res['success']
+    C, R = comfort_and_road_holding(res['terms'] if ok else res['terms_at_stop'], scales)
+    return {'alpha': float(alpha), 'weights': weights, 'design': res['design'],
+            'objective': res['objective'], 'terms': res['terms'],
+            'comfort': C if ok else None, 'road_holding': R if ok else None,
+            **({} if ok else {'comfort_at_stop': C, 'road_holding_at_stop': R}),
+            'success': ok, 'status': res['status'], 'verified': res.get('verified'),
+            'verification': res['verification'], 'iterations': res['iterations'],
+            'wall_time_s': res['wall_time_s'], 'history': res['history']}
+
+
 def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
                fidelity: str = 'low', points: int = 9, progress: Progress | None = None,
                log: Callable[[str], None] | None = None, verify: bool = True
@@ -54,8 +68,11 @@ def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
     ``pareto.json`` after every point, the case recorder ``cases.sql`` (the trajectory
     at every point, as case ``alpha=<α>``) and, at the end, ``table.md`` and
     ``figures/``; the initial design evaluated in the same model is kept as ``initial``.
-    A point where IPOPT does not converge is kept with ``success: false`` and the sweep
-    goes on from the last converged point. Returns the front."""
+    A point where IPOPT does not converge is kept with ``success: false`` (its C, R and f
+    are None: not results; their values at the stop are kept as ``*_at_stop``) and the
+    sweep goes on from the last converged point. Interrupted (Ctrl-C, SIGTERM), it stops
+    with ``complete: false``, keeping the point being solved only if IPOPT had converged.
+    Returns the front."""
     from suspopt import report  # matplotlib only when figures are drawn
 
     if points < 2:
@@ -65,8 +82,7 @@ def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
     t0 = time.perf_counter()
     scales = resolve_scales(config)
     terms = config.terms()
-    config_dict = out_dir.keep_inputs(config.to_dict()) if isinstance(out_dir, RunDirectory) \
-        else config.to_dict()
+    config_dict = keep_inputs(out, config.to_dict())
     data: dict[str, Any] = {'config': config_dict, 'fidelity': fidelity,
                             'scales': list(scales), 'terms': list(terms),
                             'design_names': list(config.design_names()),
@@ -82,25 +98,25 @@ def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         say('the initial design in this model (for reference)')
         init = evaluate(config, fidelity, start, scales=scales, problem=problem,
                         label='initial', verify=False)
-        C, R = comfort_and_road_holding(init['terms'], scales[0])
+        C, R = comfort_and_road_holding(init['terms'], scales[0]) if init['success'] \
+            else (None, None)  # not converged: no reference point
         data['initial'] = {'design': start, 'terms': init['terms'], 'comfort': C,
-                           'road_holding': R}
+                           'road_holding': R, 'success': init['success']}
         save()
         guess = 'keep'  # the first point starts from the initial design's solution
         for alpha in np.linspace(0.0, 1.0, points):
             w = comfort_share_weights(terms, alpha)
             cfg = config.with_weights(w)
             say(f'comfort share {alpha:.3f}')
-            res = optimize(cfg, fidelity, start=start, scales=scales, problem=problem,
-                           guess=guess, label=f'alpha={alpha:.6f}', verify=verify)
-            C, R = comfort_and_road_holding(res['terms'], scales[0])
-            data['points'].append({
-                'alpha': float(alpha), 'weights': w, 'design': res['design'],
-                'objective': res['objective'], 'terms': res['terms'], 'comfort': C,
-                'road_holding': R, 'success': res['success'], 'status': res['status'],
-                'verified': res['verified'], 'verification': res['verification'],
-                'iterations': res['iterations'], 'wall_time_s': res['wall_time_s'],
-                'history': res['history']})
+            try:
+                res = optimize(cfg, fidelity, start=start, scales=scales, problem=problem,
+                               guess=guess, label=f'alpha={alpha:.6f}', verify=verify)
+            except Interrupted as stop:
+                if stop.result and stop.result['success']:
+                    data['points'].append(_point(alpha, w, stop.result, scales[0]))
+                    save()
+                raise
+            data['points'].append(_point(alpha, w, res, scales[0]))
             save()
             if res['success']:  # the next point starts from here, trajectory included
                 start, guess = res['design'], 'keep'

@@ -4,7 +4,11 @@ It reads only what the run wrote: ``study.json`` (or ``result.json`` of an optim
 ``pareto.json`` of a Pareto front), the SQLite case recorders (the trajectories of every
 design in each model), ``time_marching.npz`` and the study description inside them (the
 road as used, with copies of its files under ``inputs/``); never the user's original
-files. It writes ``table.md`` and ``figures/*.png``:
+files, and it does not validate the study again (a directory written by an older suspopt
+renders as it was). A damaged or incomplete directory is a one-line
+:class:`~suspopt.errors.ConfigError`. What did not converge is shown as such, never with
+a value as a result; trajectories are drawn only of converged results. It writes
+``table.md`` and ``figures/*.png``:
 
 * ``road.png`` — road input under every wheel (paper Figure 3);
 * ``initial_design.png`` — low- vs mixed-fidelity trajectories at the initial design
@@ -21,12 +25,14 @@ from typing import Any
 
 import numpy as np
 
+from suspopt.errors import ConfigError
 from suspopt.models.objective import term_units
-from suspopt.results import read_json, read_trajectory, write_text
+from suspopt.results import (STUDY_DESIGNS, read_json, read_trajectory, resolve_inputs,
+                             write_text)
 from suspopt.trajectory import Trajectory
 
-DESIGN_LABELS = {'initial': 'Initial guess', 'low_optimum': 'Low-fidelity optimum',
-                 'mixed_optimum': 'Mixed-fidelity optimum'}
+DESIGN_LABELS = dict(zip(STUDY_DESIGNS, ('Initial guess', 'Low-fidelity optimum',
+                                         'Mixed-fidelity optimum')))
 FIDELITY_LABELS = {'low': 'low-fidelity', 'mixed': 'mixed-fidelity (multibody)'}
 CHASSIS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
            ('thdd_C', r'$\ddot\theta_C$ [rad/s$^2$]', 'chassis pitch acceleration'),
@@ -106,7 +112,8 @@ def table_markdown(study: dict[str, Any]) -> str:
             e = ev.get(f'{fid}/{name}')
             if e:
                 lines.append(f'| {label} | {fid} | ' + ' | '.join(
-                    f"{e['terms'][t]:.5g}" for t in terms) + ' |')
+                    f"{e['terms'][t]:.5g}" if e.get('terms') else '—' for t in terms)
+                    + (' |' if e.get('terms') else ' (NOT converged) |'))
     checked = [(name, fid) for name in DESIGN_LABELS for fid in ('low', 'mixed')
                if 'max_rel_diff' in ((ev.get(f'{fid}/{name}') or {}).get('verification') or {})]
     if checked:
@@ -157,20 +164,24 @@ def table_markdown(study: dict[str, Any]) -> str:
 
 def run_markdown(res: dict[str, Any]) -> str:
     """The result of one ``suspopt optimize`` run, as Markdown."""
-    d, J = res.get('design') or {}, res.get('terms') or {}
+    ok = bool(res.get('success'))
+    d, J = res.get('design') or {}, (res.get('terms') if ok else res.get('terms_at_stop')) or {}
     names = list(d)
     lines = [f"**{res['fidelity']}-fidelity {res.get('mode', 'optimize')}** — "
-             f"{'converged' if res.get('success') else 'NOT converged'} "
-             f"({res.get('status', '?')}), {_verdict(res)}, {res.get('iterations', '—')} "
+             f"{'converged' if ok else 'NOT converged'} ({res.get('status', '?')}), "
+             + (f'{_verdict(res)}, ' if ok else '') + f"{res.get('iterations', '—')} "
              f"IPOPT iterations, {_fmt(res.get('wall_time_s'), 3)} s", '',
              '| | ' + ' | '.join(f'{n} [{_design_unit(n)}]' for n in names) + ' | f |',
              '|---|' + '---|' * (len(names) + 1)]
     for label, design, f in (('start', res.get('start') or {}, None),
-                             ('result', d, res.get('objective'))):
+                             ('result' if ok else 'stopped at (not a result)', d,
+                              res.get('objective'))):
         if design:
             lines.append(f'| {label} | ' + ' | '.join(f'{design[n]:.0f}' for n in names)
                          + f' | {"—" if f is None else f"{f:.4f}"} |')
     if J:
+        if not ok:
+            lines += ['', 'Objective terms where IPOPT stopped (NOT converged: not a result):']
         lines += ['', '| ' + ' | '.join(f'J_{t} [{term_units(t)}]' for t in J) + ' |',
                   '|' + '---|' * len(J), '| ' + ' | '.join(_fmt(J[t], 5) for t in J) + ' |']
     v = res.get('verification') or {}
@@ -202,11 +213,11 @@ def pareto_markdown(front: dict[str, Any]) -> str:
     for pt in front['points']:
         d = pt['design']
         lines.append(f"| {pt['alpha']:.3f} | " + ' | '.join(f'{d[n]:.0f}' for n in names)
-                     + f" | {pt['comfort']:.4f} | {pt['road_holding']:.4f} | "
+                     + f" | {_fmt(pt.get('comfort'))} | {_fmt(pt.get('road_holding'))} | "
                      f"{_fmt(pt['objective'])} | {pt['status']} | {pt['iterations']} | "
                      f'{_verdict(pt)} |')
     init = front.get('initial')
-    if init:
+    if init and init.get('comfort') is not None:
         d = init['design']
         lines.append('| initial design | ' + ' | '.join(f'{d[n]:.0f}' for n in names)
                      + f" | {init['comfort']:.4f} | {init['road_holding']:.4f} | | | | |")
@@ -342,27 +353,39 @@ def _plot_set(path: Path, title: str, curves: list[tuple[str, Trajectory, dict]]
     return path
 
 
-def _road_figure(path: Path, config_dict: dict[str, Any]) -> Path:
+def _setting(out: Path, config_dict: dict[str, Any]):
+    """The car's corners and the first scenario's roads, speed and horizon, from the
+    study description of a results directory (its kept input copies; not validated)."""
+    from suspopt.models.layout import full_car, half_car
+    from suspopt.road import road_tracks
+    cfg = resolve_inputs(out, config_dict)
+    v, man = cfg['vehicle'], cfg['maneuver']
+    a1, a2 = float(v['front']['axle_position']), float(v['rear']['axle_position'])
+    lay = (full_car(a1, a2, float(v['front']['track']), float(v['rear']['track']))
+           if v['model'] == 'full_car' else half_car(a1, a2))
+    sc = (cfg.get('scenario') or [{}])[0]
+    road = sc.get('road') or cfg['road']
+    return (lay, road_tracks(road, lay.n_tracks, lay.track_separation()),
+            float(sc.get('speed') or man['speed']), float(sc.get('horizon') or man['horizon']),
+            road.get('profile'))
+
+
+def _road_figure(path: Path, out: Path, config_dict: dict[str, Any]) -> Path:
     """Road displacement under every wheel over the horizon (paper Figure 3)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from suspopt.config import config_from_dict
-    from suspopt.road import road_tracks
-    config = config_from_dict(config_dict)
-    sc = config.scenarios()[0]
-    lay = config.layout()
-    tracks = road_tracks(sc.road, lay.n_tracks, lay.track_separation())
-    t = np.linspace(0.0, sc.horizon, 2001)
+    lay, tracks, speed, horizon, profile = _setting(out, config_dict)
+    t = np.linspace(0.0, horizon, 2001)
     fig, ax = plt.subplots(figsize=(8, 3.5), constrained_layout=True)
     for c, (corner, off) in enumerate(zip(lay.corners, lay.offsets())):
-        h = tracks[corner.track].r(sc.speed * t - off)
+        h = tracks[corner.track].r(speed * t - off)
         ax.plot(t, h * 1e3, ls='-' if corner.axle == 0 else '--',
                 label=rf'wheel {corner.label} $\delta_{{{corner.label}}}(t)$')
     ax.set_xlabel('time t [s]')
     ax.set_ylabel('road displacement [mm]')
-    ax.set_title(f"Road input ({sc.road.get('profile')}, v = {sc.speed:g} m/s) — paper Fig. 3")
+    ax.set_title(f"Road input ({profile}, v = {speed:g} m/s) — paper Fig. 3")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=110)
@@ -395,32 +418,31 @@ def _convergence_figure(path: Path, runs: dict[str, dict[str, Any]]) -> Path:
     return path
 
 
-def _labels(config_dict: dict[str, Any]) -> list[str]:
-    from suspopt.config import config_from_dict
-    return list(config_from_dict(config_dict).layout().labels)
+def _labels(out: Path, config_dict: dict[str, Any]) -> list[str]:
+    return list(_setting(out, config_dict)[0].labels)
 
 
 def render_run(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a ``suspopt optimize`` directory from its
     ``result.json`` and case recorder ``cases.sql``."""
     out = Path(out_dir)
-    res = read_json(out / 'result.json')
+    res = _read(out / 'result.json')
     write_text(out / 'table.md', run_markdown(res))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
     written = [out / 'table.md']
     fid = res['fidelity']
     if res.get('config'):
-        written.append(_road_figure(figs / 'road.png', res['config']))
+        written.append(_road_figure(figs / 'road.png', out, res['config']))
         tr = read_trajectory(out / 'cases.sql', f'{fid}_optimum') \
-            if (out / 'cases.sql').exists() else None
-        if tr is not None:
+            if (out / 'cases.sql').exists() and res.get('success') else None
+        if tr is not None:  # only a converged result's trajectory
             terms = list(res.get('terms') or {})
             written.append(_plot_set(figs / 'trajectories.png',
                                      f'The {FIDELITY_LABELS[fid]} model at the design found',
                                      [(f'{fid} fidelity', tr, {'color': 'tab:blue' if fid == 'low'
                                                                else 'tab:red', 'lw': 1.2})],
-                                     terms, _labels(res['config'])))
+                                     terms, _labels(out, res['config'])))
     if res.get('history'):
         written.append(_convergence_figure(figs / 'convergence.png', {fid: res}))
     return written
@@ -432,7 +454,7 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
     out = Path(out_dir)
-    front = read_json(out / 'pareto.json')
+    front = _read(out / 'pareto.json')
     write_text(out / 'table.md', pareto_markdown(front))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
@@ -444,12 +466,15 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
     for p in ok:
         a1.annotate(f"α={p['alpha']:.2f}", (p['comfort'], p['road_holding']),
                     textcoords='offset points', xytext=(5, 4), fontsize=8)
-    bad = [p for p in pts if not p['success'] or p.get('verified') is False]
+    bad = [(p.get('comfort', p.get('comfort_at_stop')),
+            p.get('road_holding', p.get('road_holding_at_stop')))
+           for p in pts if not p['success'] or p.get('verified') is False]
+    bad = [b for b in bad if None not in b]
     if bad:
-        a1.plot([p['comfort'] for p in bad], [p['road_holding'] for p in bad], 'x',
-                color='tab:red', label='not converged or not verified')
+        a1.plot([c for c, _ in bad], [r for _, r in bad], 'x', color='tab:red',
+                label='not converged (where IPOPT stopped) or not verified')
     init = front.get('initial')
-    if init:
+    if init and init.get('comfort') is not None:
         a1.plot([init['comfort']], [init['road_holding']], 's', color='gray',
                 label='initial design, same model')
     a1.set(xlabel='comfort C (smaller: smoother ride)',
@@ -471,40 +496,76 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
     return [out / 'table.md', figs / 'pareto.png']
 
 
+#: what a results file of each kind must hold to be rendered
+_REQUIRED = {'study.json': ('config', 'scales', 'terms', 'design_names', 'normalization'),
+             'result.json': ('fidelity', 'design', 'success', 'status'),
+             'pareto.json': ('config', 'fidelity', 'design_names', 'bounds', 'normalization',
+                             'points')}
+
+
+def _read(path: Path) -> dict[str, Any]:
+    data = read_json(path)
+    missing = [k for k in _REQUIRED[path.name] if k not in data]
+    if missing:
+        raise ConfigError(f'{path}: damaged or incomplete results file (no '
+                          f'{", ".join(missing)})')
+    return data
+
+
 def render(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a (possibly partial) study directory, or of
-    an optimize or Pareto directory."""
+    an optimize, Pareto, robust, coupling or topology-study (``compare.json``) directory. A
+    damaged or incomplete one is a ConfigError."""
+    out = Path(out_dir)
+    if not out.is_dir():
+        raise ConfigError(f'{out}: not a directory')
+    try:
+        if not (out / 'study.json').exists() and (out / 'compare.json').exists():
+            from suspopt.compare_report import render_compare  # a topology study
+            return render_compare(out)
+        if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
+            return render_pareto(out)
+        if not (out / 'study.json').exists() and (out / 'robust.json').exists():
+            return render_robust(out)
+        if not (out / 'study.json').exists() and (out / 'coupling.json').exists():
+            return render_coupling(out)
+        if not (out / 'study.json').exists() and (out / 'result.json').exists():
+            return render_run(out)
+        return render_study(out)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as err:
+        if isinstance(err, ConfigError):
+            raise
+        raise ConfigError(f'{out}: damaged or incomplete results ({type(err).__name__}: '
+                          f'{err})') from None
+
+
+def render_study(out: Path) -> list[Path]:
+    """Write ``table.md`` and the figures of a (possibly partial) study directory."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    out = Path(out_dir)
-    if not out.is_dir():
-        from suspopt.errors import ConfigError
-        raise ConfigError(f'{out}: not a directory')
-    if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
-        return render_pareto(out)
-    if not (out / 'study.json').exists() and (out / 'robust.json').exists():
-        return render_robust(out)
-    if not (out / 'study.json').exists() and (out / 'coupling.json').exists():
-        return render_coupling(out)
-    if not (out / 'study.json').exists() and (out / 'result.json').exists():
-        return render_run(out)
-    study = read_json(out / 'study.json')
+    study = _read(out / 'study.json')
     write_text(out / 'table.md', table_markdown(study))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', _road_figure(figs / 'road.png', study['config'])]
-    terms, labels = study['terms'], _labels(study['config'])
+    written = [out / 'table.md', _road_figure(figs / 'road.png', out, study['config'])]
+    terms, labels = study['terms'], _labels(out, study['config'])
 
     import openmdao.api as om
 
-    from suspopt.study import STUDY_DESIGNS
     traj = {}
+    ev = study.get('evaluations') or {}
     for fid in ('low', 'mixed'):
         if (out / f'{fid}.sql').exists():
-            rec = om.CaseReader(str(out / f'{fid}.sql'))
+            try:
+                rec = om.CaseReader(str(out / f'{fid}.sql'))
+            except Exception as err:  # sqlite's errors of a damaged file
+                raise ConfigError(f'{out / f"{fid}.sql"}: damaged case recorder ({err})') \
+                    from None
             for name in STUDY_DESIGNS:  # recorded under the design's name in each model
+                if not (ev.get(f'{fid}/{name}') or {}).get('success'):
+                    continue  # not a converged result (an interrupted or failed solve)
                 tr = read_trajectory(rec, name)
                 if tr is not None:
                     traj[fid, name] = tr
@@ -535,7 +596,10 @@ def render(out_dir: str | Path) -> list[Path]:
                                  curves, terms, labels))
     tm_path = out / 'time_marching.npz'
     if tm_path.exists() and traj:
-        data = np.load(tm_path)
+        try:
+            data = np.load(tm_path)
+        except Exception as err:  # numpy's and zipfile's errors of a damaged file
+            raise ConfigError(f'{tm_path}: damaged ({err})') from None
         panels = _panels(terms)
         fig, axes = _figure('Collocation (markers) vs time marching (lines)', panels)
         for (fid, name), style in ((('low', 'low_optimum'), low_style),

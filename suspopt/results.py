@@ -31,6 +31,8 @@ RUN_OUTPUTS = ('result.json', 'study.json', 'pareto.json', 'compare.json', 'coup
                'cases.sql', 'low.sql', 'mixed.sql', 'time_marching.npz', 'figures', 'inputs',
                'sweep.json', 'summary.csv', 'tasks')
 LOCK = '.suspopt.lock'
+#: the designs of the two-step study, as recorded (study.json, case labels)
+STUDY_DESIGNS = ('initial', 'low_optimum', 'mixed_optimum')
 
 
 def _json_default(obj: Any) -> Any:
@@ -110,9 +112,9 @@ class RunDirectory:
         try:
             p.mkdir(parents=True, exist_ok=True)
         except OSError as err:
-            raise ConfigError(f'--out: cannot create {p}: {err.strerror}') from None
+            raise RunError(f'--out: cannot create {p}: {err.strerror}') from None
         if not os.access(p, os.W_OK):
-            raise ConfigError(f'--out: {p} is not writable')
+            raise RunError(f'--out: {p} is not writable')
         self._lock()
         try:
             existing = [q for q in p.iterdir() if q.name != LOCK]
@@ -120,8 +122,12 @@ class RunDirectory:
                 raise ConfigError(f'--out: {p} already contains results; choose another '
                                   'directory or pass --overwrite')
             for q in existing:  # --overwrite: nothing of an earlier run survives
-                if q.name in RUN_OUTPUTS or q.suffix in ('.sql', '.json', '.md', '.npz', '.png'):
+                if q.name in RUN_OUTPUTS or q.suffix in ('.sql', '.json', '.md', '.npz', '.png',
+                                                         '.tmp'):
                     shutil.rmtree(q) if q.is_dir() else q.unlink()
+        except OSError as err:
+            self._unlock()
+            raise RunError(f'--out: cannot clear {p}: {err.strerror}') from None
         except BaseException:
             self._unlock()
             raise
@@ -136,7 +142,7 @@ class RunDirectory:
         try:
             fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
         except OSError as err:
-            raise ConfigError(f'--out: cannot create {path}: {err.strerror}') from None
+            raise RunError(f'--out: cannot create {path}: {err.strerror}') from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -161,45 +167,81 @@ class RunDirectory:
 
     def keep_inputs(self, config_dict: dict[str, Any]) -> dict[str, Any]:
         """Copy the files the study reads (road CSVs, mechanism files) into ``inputs/`` and
-        return the study description pointing at those copies (self-contained results)."""
-        from suspopt.multibody.mechanism import builtin_mechanisms
-        inputs = self.path / 'inputs'
-        out = json.loads(json.dumps(config_dict))
-        copied: dict[str, str] = {}
+        return the study description pointing at those copies, by paths relative to the
+        directory (self-contained results that can be moved: read them back with
+        :func:`resolve_inputs`)."""
+        return keep_inputs(self.path, config_dict)
 
-        def keep(src: str) -> str:
-            if src not in copied:
-                try:
-                    inputs.mkdir(exist_ok=True)
-                    dst = inputs / f'{len(copied)}_{Path(src).name}'
-                    shutil.copyfile(src, dst)
-                except OSError as err:
-                    raise RunError(f'cannot copy {src} into {inputs}: {err.strerror}') from None
-                copied[src] = str(dst.resolve())
-            return copied[src]
 
-        def roads(road: dict[str, Any]) -> None:
-            if road.get('profile') == 'csv' and road.get('file'):
-                road['file'] = keep(road['file'])
+def keep_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[str, Any]:
+    """:meth:`RunDirectory.keep_inputs` for any output directory."""
+    from suspopt.multibody.mechanism import builtin_mechanisms
+    inputs = Path(directory) / 'inputs'
+    out = json.loads(json.dumps(config_dict))
+    copied: dict[str, str] = {}
+
+    def keep(src: str) -> str:
+        if src not in copied:
+            dst = inputs / f'{len(copied)}_{Path(src).name}'
+            try:
+                inputs.mkdir(exist_ok=True)
+                shutil.copyfile(src, dst)
+            except OSError as err:
+                raise RunError(f'cannot copy {src} into {inputs}: {err.strerror}') from None
+            copied[src] = f'inputs/{dst.name}'
+        return copied[src]
+
+    def roads(road: dict[str, Any]) -> None:
+        if road.get('profile') == 'csv' and road.get('file'):
+            road['file'] = keep(road['file'])
+        for side in ('left', 'right'):
+            if isinstance(road.get(side), dict):
+                roads(road[side])
+
+    roads(out['road'])
+    for sc in out.get('scenario', []):
+        if sc.get('road'):
+            roads(sc['road'])
+    for axle in ('front', 'rear'):
+        mech = out['vehicle'][axle]['mechanism']
+        if mech not in builtin_mechanisms():
+            out['vehicle'][axle]['mechanism'] = keep(mech)
+    return out
+
+
+def resolve_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[str, Any]:
+    """A study description from a results directory with the paths of its kept inputs
+    (``inputs/...``, :func:`keep_inputs`) made absolute: it reads the copies, wherever the
+    directory now is, never the user's original files."""
+    base = Path(directory)
+    out = json.loads(json.dumps(config_dict))
+
+    def fix(path: Any) -> Any:
+        return str(base / path) if isinstance(path, str) and path.startswith('inputs/') \
+            else path
+
+    def roads(road: Any) -> None:
+        if isinstance(road, dict):
+            if road.get('profile') == 'csv':
+                road['file'] = fix(road.get('file'))
             for side in ('left', 'right'):
-                if isinstance(road.get(side), dict):
-                    roads(road[side])
+                roads(road.get(side))
 
-        roads(out['road'])
-        for sc in out.get('scenario', []):
-            if sc.get('road'):
-                roads(sc['road'])
-        for axle in ('front', 'rear'):
-            mech = out['vehicle'][axle]['mechanism']
-            if mech not in builtin_mechanisms():
-                out['vehicle'][axle]['mechanism'] = keep(mech)
-        return out
+    roads(out.get('road'))
+    for sc in out.get('scenario') or []:
+        if isinstance(sc, dict):
+            roads(sc.get('road'))
+    for axle in ('front', 'rear'):
+        ax = (out.get('vehicle') or {}).get(axle)
+        if isinstance(ax, dict):
+            ax['mechanism'] = fix(ax.get('mechanism'))
+    return out
 
 
 def read_trajectory(recorder: Any, label: str, scenario: int = 0) -> Trajectory | None:
     """The trajectory of one scenario recorded as problem case ``label`` (None if absent);
-    ``recorder`` is a case recorder file or an open ``CaseReader`` (reuse: opening one
-    takes about half a second)."""
+    ``recorder`` is a case recorder file or an open ``CaseReader`` (open it once to read
+    several cases)."""
     import openmdao.api as om
     try:
         cr = om.CaseReader(str(recorder)) if isinstance(recorder, (str, Path)) else recorder

@@ -25,7 +25,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import functools
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -41,9 +40,16 @@ class RoadProfile:
     """Base class of road profiles: height ``r(s)``, slope ``dr_ds(s)``, kinks of ``r''``."""
 
     kind: ClassVar[str] = ''
+    #: made of discrete features (bumps, steps) that a collocation grid must sample
+    #: whatever their frequency (:mod:`suspopt.transcription.grid`)
+    transient: ClassVar[bool] = False
 
     def r(self, s: ArrayLike) -> np.ndarray:
         raise NotImplementedError
+
+    def feature(self) -> str:
+        """What the profile's fastest content is, in words (for messages)."""
+        return self.kind
 
     def dr_ds(self, s: ArrayLike) -> np.ndarray:
         raise NotImplementedError
@@ -68,6 +74,17 @@ class RoadProfile:
         return []
 
 
+#: the highest bump or step suspopt accepts [m] (a guard against cm typed as m)
+MAX_FEATURE_HEIGHT = 1.0
+
+
+def _height_problems(height: float, where: str) -> list[str]:
+    if abs(height) > MAX_FEATURE_HEIGHT:
+        return [f'{where}.height: {height:g} m is beyond a road feature (at most '
+                f'{MAX_FEATURE_HEIGHT:g} m; heights are in metres: 5 cm is 0.05)']
+    return []
+
+
 def _plain(value: Any) -> Any:
     if isinstance(value, tuple):
         return list(value)
@@ -81,6 +98,7 @@ class CosineBumps(RoadProfile):
     """Consecutive 1-cos bumps: ``r(s) = Σ_j h/2 (1 - cos(2π (s - s_j)/ℓ))`` on each bump."""
 
     kind: ClassVar[str] = 'two_bumps'
+    transient: ClassVar[bool] = True
     height: float = 0.05
     length: float = 2.0
     starts: tuple[float, ...] = (5.0, 10.0)
@@ -111,8 +129,11 @@ class CosineBumps(RoadProfile):
         """A 1-cos bump of length ℓ is one period of frequency 1/ℓ."""
         return 1.0 / self.length
 
+    def feature(self) -> str:
+        return f'bumps of {self.length:g} m'
+
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
-        errs = []
+        errs = _height_problems(self.height, where)
         if not self.length > 0.0:
             errs.append(f'{where}.length: must be > 0, got {self.length}')
         if any(s < 0.0 for s in self.starts):
@@ -143,6 +164,7 @@ class SmoothStep(RoadProfile):
     """
 
     kind: ClassVar[str] = 'step'
+    transient: ClassVar[bool] = True
     height: float = 0.05
     position: float = 5.0
     ramp_length: float = 0.5
@@ -164,11 +186,15 @@ class SmoothStep(RoadProfile):
         """The ramp is half a period of frequency 1/(2 ramp_length)."""
         return 0.5 / self.ramp_length
 
+    def feature(self) -> str:
+        return f'ramp of {self.ramp_length:g} m'
+
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
+        errs = _height_problems(self.height, where)
         if not self.ramp_length > 0.0:
-            return [f'{where}.ramp_length: must be > 0 (a sharp step is not integrable), '
-                    f'got {self.ramp_length}']
-        return []
+            errs.append(f'{where}.ramp_length: must be > 0 (a sharp step is not integrable), '
+                        f'got {self.ramp_length}')
+        return errs
 
 
 #: ISO 8608 displacement PSD G_d(n0) at n0 = 0.1 cycle/m, geometric mean of each class [m³].
@@ -205,7 +231,7 @@ class ISO8608Road(RoadProfile):
     #: grid points per wavelength of n_max (cubic spline interpolation between them)
     samples_per_wavelength: ClassVar[int] = 16
     #: largest synthesis grid (memory and time guard; see :meth:`validate`)
-    max_samples: ClassVar[int] = 20_000_000
+    max_samples: ClassVar[int] = 2_000_000
 
     def lines(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Frequencies [cycle/m], amplitudes [m] and phases [rad] of the cosines."""
@@ -396,24 +422,37 @@ def _iso8608_spline(road_class: str, seed: int, n_min: float, n_max: float, leng
     return CubicSpline(s, h, bc_type=((1, 0.0), 'not-a-knot') if fade_in > 0.0 else 'periodic')
 
 
+def _number(cell: str) -> float | None:
+    try:
+        return float(cell)
+    except ValueError:
+        return None
+
+
 def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read a distance/height CSV; raise :class:`ConfigError` naming the problem."""
+    """Read a distance/height CSV; raise :class:`ConfigError` naming the problem.
+
+    A byte-order mark (spreadsheets write one) is dropped. The first row may be a header,
+    a row of text only: a first row with a number in it is data, and must be two
+    numbers."""
     path = Path(path)
     try:
-        with path.open(newline='') as fh:
-            rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith('#')]
+        with path.open(newline='', encoding='utf-8-sig') as fh:
+            rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh))
+                    if r and any(c.strip() for c in r) and not r[0].lstrip().startswith('#')]
     except OSError as err:
         raise ConfigError(f'cannot read road CSV {path}: {err.strerror}') from None
-    except UnicodeDecodeError:
+    except (UnicodeDecodeError, csv.Error):
         raise ConfigError(f'{path}: not a text (UTF-8) CSV file') from None
     data = []
-    for i, row in enumerate(rows):
-        try:
-            data.append((float(row[0]), float(row[1])))
-        except (ValueError, IndexError):
-            if i == 0:
-                continue  # header
-            raise ConfigError(f'{path}: row {i + 1} is not two numbers: {row!r}') from None
+    for k, (line, row) in enumerate(rows):
+        cells = [_number(c) for c in row[:2]]
+        if k == 0 and all(c is None for c in cells):
+            continue  # header
+        if len(cells) != 2 or None in cells:
+            raise ConfigError(f'{path}: row {line} is not two numbers (distance [m], '
+                              f'height [m]): {",".join(row)!r}')
+        data.append(cells)
     if len(data) < 4:
         raise ConfigError(f'{path}: needs at least 4 distance,height rows, found {len(data)}')
     arr = np.array(data)
@@ -422,7 +461,7 @@ def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if np.any(np.diff(arr[:, 0]) <= 0.0):
         i = int(np.argmax(np.diff(arr[:, 0]) <= 0.0))
         raise ConfigError(f'{path}: distances must be strictly increasing '
-                          f'(row {i + 2}: {arr[i + 1, 0]:g} after {arr[i, 0]:g})')
+                          f'({arr[i + 1, 0]:g} after {arr[i, 0]:g})')
     return arr[:, 0], arr[:, 1]
 
 

@@ -29,12 +29,27 @@ import numpy as np
 from suspopt.config import PAPER_SCALES, StudyConfig
 from suspopt.driver import IterationInfo
 from suspopt.errors import ModelError
-from suspopt.results import RunDirectory, write_json
+from suspopt.results import RunDirectory, keep_inputs, write_json
 from suspopt.timemarching import reference_scales, simulate
 from suspopt.trajectory import Trajectory
 from suspopt.transcription.problem import Scales, SolveResult, VehicleProblem
 
 Progress = Callable[[IterationInfo], None]
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM during a solve: IPOPT stopped at the end of an iteration.
+    ``result`` is that solve's record: converged (``success``; the interrupt came after
+    IPOPT's last iteration) and kept by the caller, or not converged and not a result."""
+
+    def __init__(self, result: dict[str, Any] | None = None):
+        super().__init__()
+        self.result = result
+
+
+def interrupted_verification() -> dict[str, Any]:
+    return {'verified': None, 'interrupted': True,
+            'note': 'interrupted before the time-marching verification: not checked'}
 #: a constraint violation (IPOPT's inf_pr, scaled) below which an iterate counts as feasible
 FEASIBLE = 1e-6
 #: collocation and time marching must agree this well on every weighted J_k (relative)
@@ -71,9 +86,9 @@ def initial_guess(config: StudyConfig, fidelity: str,
     (``transcription.initial_guess``).
 
     ``simulate`` is the low-fidelity model's time marching at ``design`` for both
-    fidelities: the states are the same quantities, and from the low-fidelity optimum the
-    mixed-fidelity solve takes as many IPOPT iterations from this start as from the mixed
-    model's own time marching, which costs ten times more. ``auto`` (default) starts the
+    fidelities: the states are the same quantities, and it costs far less than the mixed
+    model's own time marching, for a start about as good.
+    ``auto`` (default) starts the
     low-fidelity model from zero instead: it is linear in its states, so IPOPT's first step
     solves its collocation equations whatever the start, and simulates for the nonlinear
     mixed model.
@@ -143,12 +158,15 @@ def result_record(config: StudyConfig, res: SolveResult, *, mode: str,
                 'design': {k.rsplit(':', 1)[-1]: v for k, v in b.design.items()}}
     last = res.history[-1] if res.history else None
     scenarios = config.scenarios()
+    ok = res.success  # a failed solve's values are not results: they are kept *_at_stop
     out = {
         'fidelity': res.fidelity, 'mode': mode, 'method': 'collocation',
-        'design': res.design, 'objective': res.objective if res.success else None,
-        'terms': res.terms[0], 'scales': res.scales[0],
-        'scenarios': [{'name': sc.name, 'weight': sc.weight, 'objective': f, 'terms': J,
-                       'scales': s, 'grid': {'segments': sc.segments, 'order': sc.order}}
+        'design': res.design, 'objective': res.objective if ok else None,
+        'terms': res.terms[0] if ok else None, 'scales': res.scales[0],
+        'scenarios': [{'name': sc.name, 'weight': sc.weight, 'objective': f if ok else None,
+                       'terms': J if ok else None, 'scales': s,
+                       'grid': {'segments': sc.segments, 'order': sc.order},
+                       **({} if ok else {'objective_at_stop': f, 'terms_at_stop': J})}
                       for sc, f, J, s in zip(scenarios, res.scenario_objectives, res.terms,
                                              res.scales)],
         'normalization': config.objective.normalization,
@@ -171,8 +189,9 @@ def result_record(config: StudyConfig, res: SolveResult, *, mode: str,
                      'elapsed_s': h.elapsed_s} for h in res.history],
         'verification': verification,
     }
-    if not res.success:  # never a plain number for a failed solve
+    if not ok:  # never a plain number for a failed solve
         out['objective_at_stop'] = res.objective
+        out['terms_at_stop'] = res.terms[0]
     return out
 
 
@@ -197,23 +216,26 @@ def _attach_verification(config, fidelity, record, scales, problem, do_verify, k
 
 
 def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | None = None,
-             scales: Scales | None = None, out_dir: str | Path | None = None,
+             scales: Scales | None = None, out_dir: str | Path | RunDirectory | None = None,
              progress: Progress | None = None, problem: VehicleProblem | None = None,
              guess: list | str | None = 'auto', label: str | None = None,
              verify: bool = True) -> dict[str, Any]:
     """Optimize the design of one model (SPEC §1) from ``start`` (default: the configured
     initial design) and verify the optimum by time marching. Writes ``result.json`` (first
-    right after IPOPT, so an interrupt during the verification loses nothing) and the case
-    recorder ``cases.sql`` to ``out_dir`` if given. ``problem`` reuses an already built
+    right after IPOPT, so an interrupt during the verification loses nothing), the case
+    recorder ``cases.sql`` and copies of the input files (``inputs/``) to ``out_dir`` if
+    given. ``problem`` reuses an already built
     problem of this fidelity; ``label`` names the optimum's case in its recorder (default
     ``'<fidelity>_optimum'``). Returns the result record; ``success`` tells whether IPOPT
     converged, ``verified`` whether time marching confirms it. An interrupted solve is
-    written and then raises KeyboardInterrupt."""
+    written and then raises :class:`Interrupted` (with the record: converged or not)."""
     t0 = time.perf_counter()
     start = dict(config.design.initial() if start is None else start)
     scales = resolve_scales(config) if scales is None else scales
     own = problem is None
-    out = Path(out_dir) if out_dir is not None else None
+    out = None if out_dir is None else \
+        out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
+    config_dict = config.to_dict() if out is None else keep_inputs(out, config.to_dict())
     if own:
         problem = VehicleProblem(config, fidelity, scales, progress=progress,
                                  recorder=None if out is None else out / 'cases.sql')
@@ -228,10 +250,12 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
         problem.record(label or f'{fidelity}_optimum')
         record = result_record(config, res, mode='optimize', start=start,
                                wall=time.perf_counter() - t0, verification=None)
-        if out is not None:
-            write_json(out / 'result.json', {**record, 'config': config.to_dict()})
         if res.interrupted:
-            raise KeyboardInterrupt
+            record['verification'], record['verified'] = interrupted_verification(), None
+        if out is not None:  # before the verification: an interrupt there loses nothing
+            write_json(out / 'result.json', {**record, 'config': config_dict})
+        if res.interrupted:
+            raise Interrupted(record)
         _attach_verification(config, fidelity, record, scales, problem, verify)
         record['wall_time_s'] = time.perf_counter() - t0
     except ModelError as err:
@@ -241,13 +265,13 @@ def optimize(config: StudyConfig, fidelity: str, *, start: dict[str, float] | No
                 'design': start, 'start': start, 'objective': None, 'success': False,
                 'status': 'Model_Error', 'message': str(err), 'iterations': 0,
                 'verified': None, 'normalization': config.objective.normalization,
-                'wall_time_s': time.perf_counter() - t0, 'config': config.to_dict()})
+                'wall_time_s': time.perf_counter() - t0, 'config': config_dict})
         raise
     finally:
         if own:
             problem.cleanup()
     if out is not None:  # with its study description: the file is self-contained
-        write_json(out / 'result.json', {**record, 'config': config.to_dict()})
+        write_json(out / 'result.json', {**record, 'config': config_dict})
     return record
 
 
@@ -299,10 +323,11 @@ def evaluate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
         if label:
             problem.record(label)
         traj = problem.timeseries()
-        if res.interrupted:
-            raise KeyboardInterrupt
         record = result_record(config, res, mode='evaluate', start=design,
                                wall=time.perf_counter() - t0, verification=None)
+        if res.interrupted:
+            record['verification'], record['verified'] = interrupted_verification(), None
+            raise Interrupted(record)
         _attach_verification(config, fidelity, record, scales, problem, verify,
                              keep=keep_trajectories)
     finally:
@@ -315,9 +340,6 @@ def evaluate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
 
 
 # ---------------------------------------------------------------------------- the study
-STUDY_DESIGNS = ('initial', 'low_optimum', 'mixed_optimum')
-
-
 class StepFailed(Exception):
     """A step of the study did not converge (its partial results are written)."""
 
@@ -356,8 +378,7 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
     say = log or (lambda msg: None)
     t_start = time.perf_counter()
     scales = resolve_scales(config)
-    config_dict = out_dir.keep_inputs(config.to_dict()) if isinstance(out_dir, RunDirectory) \
-        else config.to_dict()
+    config_dict = keep_inputs(out, config.to_dict())
     study: dict[str, Any] = {
         'config': config_dict, 'scales': list(scales), 'terms': list(config.terms()),
         'design_names': list(config.design_names()),
@@ -381,6 +402,18 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         save()
         return record
 
+    def evaluation(fid: str, name: str, **kw: Any) -> None:
+        """Evaluate design ``name`` in model ``fid`` and keep it; interrupted, keep it
+        only if IPOPT had converged (then not verified, and said so) and stop."""
+        try:
+            rec = evaluate(config, fid, designs[name], scales=scales, problem=problems[fid],
+                           label=name, verify=verify, keep_trajectories=True, **kw)
+        except Interrupted as stop:
+            if stop.result and stop.result['success']:
+                keep(fid, name, stop.result)
+            raise
+        keep(fid, name, rec)
+
     try:
         for fid in ('low', 'mixed'):
             problems[fid] = VehicleProblem(config, fid, scales, recorder=out / f'{fid}.sql',
@@ -390,11 +423,17 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         def step(fid: str, start: str, result: str, guess) -> None:
             """Evaluate model ``fid`` at design ``start``, optimize it from there (same
             problem, IPOPT starting from that collocation solution), verify, record, save."""
-            keep(fid, start, evaluate(config, fid, designs[start], scales=scales,
-                                      problem=problems[fid], label=start, guess=guess,
-                                      verify=verify, keep_trajectories=True))
-            res = optimize(config, fid, start=designs[start], scales=scales,
-                           problem=problems[fid], guess='keep', label=result, verify=False)
+            evaluation(fid, start, guess=guess)
+            try:
+                res = optimize(config, fid, start=designs[start], scales=scales,
+                               problem=problems[fid], guess='keep', label=result,
+                               verify=False)
+            except Interrupted as stop:
+                if stop.result and stop.result['success']:  # converged: kept, unchecked
+                    study['steps'][fid] = stop.result
+                    designs[result] = stop.result['design']
+                    save()
+                raise
             study['steps'][fid] = res
             designs[result] = res['design']
             save()
@@ -417,14 +456,9 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
 
         say('evaluating every design in both models (IPOPT solves the collocation '
             'equations with the design held)')
-        keep('mixed', 'initial', evaluate(config, 'mixed', designs['initial'], scales=scales,
-                                          problem=mixed, label='initial', verify=verify,
-                                          keep_trajectories=True))
-        keep('low', 'mixed_optimum', evaluate(
-            config, 'low', designs['mixed_optimum'], scales=scales, problem=low,
-            label='mixed_optimum', guess=[mixed.timeseries(i)
-                                          for i in range(len(mixed.scenarios))],
-            verify=verify, keep_trajectories=True))
+        evaluation('mixed', 'initial')
+        evaluation('low', 'mixed_optimum',
+                   guess=[mixed.timeseries(i) for i in range(len(mixed.scenarios))])
         study['designs'] = designs
         if arrays:
             np.savez_compressed(out / 'time_marching.npz', **arrays)

@@ -389,11 +389,12 @@ def full_chassis_problem(scales):
     from suspopt.transcription.problem import VehicleProblem
     full = full_car_defaults()
     full = with_mount(config_from_dict({**full.to_dict(), 'maneuver': {'horizon': 1.0},
-                                        'transcription': {'segments': 3},
                                         'objective': {'normalization': 'custom',
                                                       'scales': dict.fromkeys(full.terms(),
                                                                               1.0)}}),
                       'chassis')
+    # a structure test: 3 segments (too coarse for results, refused in a study file)
+    full = full.replace(transcription=dataclasses.replace(full.transcription, segments=3))
     with VehicleProblem(full, 'mixed', (dict.fromkeys(full.terms(), 1.0),)) as vp:
         vp.set_initial_guess(simulate(full, 'low', rtol=1e-6, atol=1e-9))
         vp.problem.run_model()

@@ -165,13 +165,14 @@ def test_fd_steps_are_the_configured_steps(module, kind, form):
 
 
 # ------------------------------------------------------------------------ (b) call counts
+@pytest.mark.parametrize('mechanism', ['double_wishbone', 'macpherson'])
 @pytest.mark.parametrize('form, factor', [('forward', 1), ('central', 2)])
 @pytest.mark.parametrize('kind', ['kin', 'dyn'])
-def test_solver_calls_per_jacobian_do_not_grow_with_nodes(kind, form, factor):
+def test_solver_calls_per_jacobian_do_not_grow_with_nodes(kind, form, factor, mechanism):
     Comp, ins, outs = KIN if kind == 'kin' else DYN
     counts = {}
     for nn in (10, 80):
-        mod = SuspensionModule('double_wishbone')
+        mod = SuspensionModule(mechanism)
         p, comp = make_problem(Comp, nn, mod, inputs(nn), ins, fd_form=form)
         n_compute = [0]
         evaluate = comp.evaluate

@@ -3,6 +3,8 @@ problem, stationarity of the sum against separately built problems, the worst ca
 dense-row (reverse) derivatives of the epigraph form."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -94,7 +96,8 @@ def test_dense_rows_by_reverse_solves_equal_openmdaos_totals(monkeypatch):
     others, equal OpenMDAO's uncolored driver-scaled totals; the coloring is a valid
     column coloring of the remaining rows."""
     monkeypatch.setattr(sparsity, 'DENSE_ROW_MIN', 20)  # the tiny grid's rows are short
-    cfg = _config(TWO, aggregate='max', segments=4)
+    cfg = _config(TWO, aggregate='max')  # a structure test: 4 segments (refused in a file)
+    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=4))
     scales = tuple(dict.fromkeys(cfg.terms(), 1.0) for _ in cfg.scenarios())
     with VehicleProblem(cfg, 'low', scales, use_cache=False) as vp:
         drv = vp.driver
@@ -152,3 +155,18 @@ def test_robust_command_shows_what_the_robust_design_buys(tmp_path, capsys):
     single.write_text('[[scenario]]\nname = "only"\n')
     assert main(['robust', '--config', str(single), '--out', str(tmp_path / 'x')]) == 2
     assert 'scenario' in capsys.readouterr().err
+
+
+def test_mixed_fidelity_scenarios_are_the_separate_problems():
+    """Both fidelities: the mixed-fidelity model over two scenarios in one NLP (the design
+    held) gives each scenario the f_s of its own single-scenario problem, and the sum."""
+    cfg = _config(TWO, segments=24)
+    scales = tuple(dict.fromkeys(cfg.terms(), 1.0) for _ in cfg.scenarios())
+    design = cfg.design.initial()
+    both = evaluate(cfg, 'mixed', design, scales=scales, verify=False)
+    assert both['success']
+    alone = [evaluate(_config([sc], segments=24), 'mixed', design, scales=(scales[0],),
+                      verify=False)['objective'] for sc in TWO]
+    for rec, f in zip(both['scenarios'], alone):
+        assert rec['objective'] == pytest.approx(f, rel=1e-7), rec['name']
+    assert both['objective'] == pytest.approx(sum(alone), rel=1e-7)

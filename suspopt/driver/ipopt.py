@@ -115,17 +115,32 @@ def _add_option(nlp: cyipopt.Problem, name: str, value: Any) -> None:
         nlp.add_option(name, float(value))
 
 
+#: IPOPT options the driver sets from first-class study keys (the options table would
+#: override them, and the command line's --max-iter with them)
+DRIVER_OPTIONS = {'max_iter': 'optimizer.max_iter', 'tol': 'optimizer.tol',
+                  'print_level': 'optimizer.print_level'}
+
+
 def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
-    """One ``name: reason`` line per option that IPOPT itself rejects (unknown name, wrong
-    type, value out of range), found by setting each on a throw-away IPOPT problem."""
+    """One ``name: reason`` line per option IPOPT would reject, before any work: unknown
+    name, wrong type, value out of range (set on a throw-away IPOPT problem), an option
+    that only fails when IPOPT starts (an unavailable ``linear_solver``: one tiny real
+    solve with the options), an ``output_file`` that cannot be written, and options the
+    driver cannot honour (``hessian_approximation = "exact"``: it gives IPOPT no Hessian)
+    or sets itself (:data:`DRIVER_OPTIONS`)."""
     if not options:
         return []
     problems = []
     nlp = cyipopt.Problem(n=1, m=0, problem_obj=_OptionProbe(), lb=[0.0], ub=[1.0])
+    accepted = {}
     try:
         for name, value in options.items():
             if isinstance(value, bool) or not isinstance(value, (int, float, str)):
                 problems.append(f'{name}: must be a number or a string, got {value!r}')
+                continue
+            if name in DRIVER_OPTIONS:
+                problems.append(f'{name}: set {DRIVER_OPTIONS[name]} instead (the driver sets '
+                                'this option from it)')
                 continue
             with tempfile.TemporaryFile(mode='w+') as out:
                 try:
@@ -135,9 +150,71 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
                     out.seek(0)
                     problems.append(f'{name}: IPOPT rejects {value!r}: '
                                     f'{_ipopt_reason(out.read())}')
+                    continue
+            if name == 'hessian_approximation' and value != 'limited-memory':
+                problems.append(f'{name}: {value!r} needs the Hessian of the Lagrangian, which '
+                                "suspopt's driver does not compute; use 'limited-memory' (the "
+                                'default)')
+            elif name == 'output_file':
+                problems.extend(_output_file_problems(name, value))
+            else:
+                accepted[name] = value
     finally:
         nlp.close()
+    if accepted and _probe_solve(accepted)[0] in _OPTION_FAILURES:
+        for name, value in accepted.items():  # which one: each alone
+            status, text = _probe_solve({name: value})
+            if status in _OPTION_FAILURES:
+                problems.append(f'{name}: IPOPT cannot run with {value!r}: '
+                                f'{_solve_reason(text)}'
+                                + (" (this IPOPT's linear solver is 'mumps')"
+                                   if name == 'linear_solver' else ''))
     return problems
+
+
+#: IPOPT statuses of a solve that an option stopped before it began
+_OPTION_FAILURES = (-11, -12)
+
+
+def _probe_solve(options: dict[str, Any]) -> tuple[int, str]:
+    """Solve the smallest problem with ``options``: (IPOPT status, what IPOPT printed)."""
+    nlp = cyipopt.Problem(n=1, m=0, problem_obj=_OptionProbe(), lb=[0.0], ub=[1.0])
+    try:
+        with tempfile.TemporaryFile(mode='w+') as out:
+            with _c_stdout_to(out):
+                nlp.add_option('hessian_approximation', 'limited-memory')
+                nlp.add_option('sb', 'yes')
+                for name, value in options.items():
+                    _add_option(nlp, name, value)
+                nlp.add_option('print_level', 1)
+                _, info = nlp.solve(np.array([0.5]))
+            out.seek(0)
+            return int(info['status']), out.read()
+    finally:
+        nlp.close()
+
+
+def _solve_reason(text: str) -> str:
+    """IPOPT's explanation of a solve that did not start, in one line."""
+    lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
+    msg = [ln.split('Exception message:', 1)[1].strip() for ln in lines
+           if 'Exception message:' in ln]
+    return (msg or lines or ['IPOPT stopped before the first iteration (Invalid_Option)'])[0]
+
+
+def _output_file_problems(name: str, value: Any) -> list[str]:
+    from pathlib import Path
+    if not isinstance(value, str) or not value:
+        return [f'{name}: must be a file name, got {value!r}']
+    path = Path(value)
+    parent = path.parent if str(path.parent) else Path('.')
+    if path.is_dir():
+        return [f'{name}: {value} is a directory']
+    if not parent.is_dir():
+        return [f'{name}: cannot write {value}: directory {parent} does not exist']
+    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        return [f'{name}: cannot write {value}: permission denied']
+    return []
 
 
 @dataclass

@@ -114,7 +114,6 @@ class ColoredTotals:
                 pos = np.nonzero(coloring.rows == row)[0]
                 self._reverse.append((self._con_out[row], pos,
                                       self._dv_res[coloring.cols[pos]]))
-        self.n_solves = 0
 
     def compute(self) -> tuple[np.ndarray, np.ndarray]:
         """(objective gradient (n,), Jacobian values at the coloring's nonzeros)."""
@@ -128,17 +127,14 @@ class ColoredTotals:
             d_res.asarray()[seeds] = -1.0
             model.run_solve_linear('fwd')
             jac[pos] = d_out.asarray()[rows]
-            self.n_solves += 1
         for seed, pos, cols in self._reverse:
             d_res.set_val(0.0)
             d_out.set_val(0.0)
             d_out.asarray()[seed] = -1.0
             model.run_solve_linear('rev')
             jac[pos] = d_res.asarray()[cols]
-            self.n_solves += 1
         d_res.set_val(0.0)
         d_out.set_val(0.0)
         d_out.asarray()[self._obj_out] = -1.0
         model.run_solve_linear('rev')
-        self.n_solves += 1
         return d_res.asarray()[self._dv_res].copy(), jac

@@ -28,10 +28,6 @@ class NodeComponent(om.ExplicitComponent):
         sub-Jacobian: an element-wise product in every linear solve)."""
         self.declare_partials(of, wrt, diagonal=True, val=val)
 
-    def _node_partials(self, of: str, wrt: str, val=None) -> None:
-        """(nodes,) output and input."""
-        self.declare_partials(of, wrt, diagonal=True, val=val)
-
     def _sum_partials(self, of: str, wrt: str, val=None) -> None:
         """(nodes,) output of a (nodes, corners) input: each node's corners."""
         nn, nc = self._shape

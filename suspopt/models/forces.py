@@ -108,7 +108,6 @@ class AntiRollBarComp(NodeComponent):
                                (node + R).ravel(), (node + R).ravel()])
         cols = np.concatenate([(node + L).ravel(), (node + R).ravel(),
                                (node + L).ravel(), (node + R).ravel()])
-        self._pattern = (rows, cols)
         for wrt in ('z_W', 'z_M'):
             self.declare_partials('F_R', wrt, rows=rows, cols=cols)
         self.declare_partials('F_R', 'k_R', rows=np.concatenate([(node + L).ravel(),

@@ -74,10 +74,6 @@ class VehicleLayout:
     def y(self) -> np.ndarray:
         return np.array([c.y for c in self.corners])
 
-    @property
-    def axle_of(self) -> np.ndarray:
-        return np.array([c.axle for c in self.corners], dtype=int)
-
     def offsets(self) -> tuple[float, ...]:
         """Distance of each wheel behind the front axle [m] (its road delay × speed)."""
         a0 = max(c.a for c in self.corners)

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError, MultibodyError
+from suspopt.multibody.elements import is_spring
 from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
@@ -127,3 +128,39 @@ def plot_curves(curves: dict[str, Any], path: str | Path) -> Path:
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def reference_wheel_rate(mechanism: Mechanism, solver: PlanarMultibodySolver | None = None
+                         ) -> tuple[float, float, float]:
+    """The wheel rate at the reference pose as ``K(k) = a k + b`` for a suspension spring
+    rate ``k``: ``(a, b, MR)``, ``MR`` the spring's motion ratio there. ``K = d²V/dw²`` of
+    every spring's potential along the wheel travel ``w``: ``k_j (s_w² + s s_ww) + f_p s_ww``
+    per spring (deflection ``s`` from its free length, preload ``f_p``), the suspension
+    spring with rate ``k`` and no preload (the vehicle supplies both), the others as in the
+    file. A static equilibrium at the reference pose is stable only if ``K > 0``."""
+    s = PlanarMultibodySolver(mechanism) if solver is None else solver
+    roles = mechanism.roles
+    q = s.q0[None]
+    qd = s.velocities(q, np.ones((1, 1)))
+    qdd = s.accelerations(q, qd, np.zeros((1, 1)))
+    wheel = s.marker_names.index(roles['wheel_marker'])
+    w1 = s.marker_velocities(q, qd)[0, wheel, 1]
+    w2 = s.marker_accelerations(q, qd, qdd)[0, wheel, 1]
+    a = b = mr = np.float64(0.0)
+    with np.errstate(all='ignore'):  # a degenerate linkage: refused below, not an error
+        for spec in mechanism.forces:
+            if not is_spring(spec):
+                continue
+            sp = s.spring(spec.name, q, qd, qdd=qdd)
+            s_w = sp.rate[0] / w1
+            s_ww = (sp.acceleration[0] - s_w * w2) / w1**2
+            dfl = sp.deflection[0]
+            if spec.name == roles['spring']:
+                a, mr = s_w**2 + dfl * s_ww, -s_w
+            else:
+                b = b + spec.stiffness * (s_w**2 + dfl * s_ww) + spec.preload * s_ww
+    if not (abs(w1) > 1e-9 and np.isfinite(a) and np.isfinite(b) and np.isfinite(mr)):
+        raise ConfigError(f'{mechanism.name}: suspension.wheel_marker: '
+                          f'{roles["wheel_marker"]!r} does not move vertically with the '
+                          'independent coordinate at the reference pose')
+    return float(a), float(b), float(mr)

@@ -16,6 +16,7 @@ geometric input is given in the global frame at the reference pose (t = 0).
 """
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -219,7 +220,7 @@ def _elements(rd: Reader, data: dict, key: str, types: dict[str, type], kind: st
         rd.element = f'({kind} {name!r})'
         try:
             typ = table.get('type', default_type)
-            if typ not in types:
+            if not isinstance(typ, (str, type(None))) or typ not in types:
                 have = sorted(types)
                 rd.err(f'{w}.type', ('missing value' if typ is None else
                                      f'unknown {kind} type {typ!r}{close(str(typ), have)}')
@@ -250,8 +251,11 @@ def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list,
         if key in sus and sus[key] not in loads:
             rd.err(f'suspension.{key}',
                    f'unknown load {sus[key]!r}{close(str(sus[key]), loads)}')
+        elif key in sus:
+            _check_tyre_direction(rd, by_name[sus[key]], data)
     springs = [f.name for f in forces if is_spring(f)]
-    if 'spring' in sus and not (sus['spring'] in by_name and is_spring(by_name[sus['spring']])):
+    if 'spring' in sus and not (isinstance(sus['spring'], str) and sus['spring'] in by_name
+                                and is_spring(by_name[sus['spring']])):
         rd.err('suspension.spring', f'{sus["spring"]!r} is not a spring force element '
                + (f'(springs: {", ".join(springs)})' if springs else
                   '(the mechanism has none: add a spring_damper or linear_spring_damper to '
@@ -282,6 +286,24 @@ def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list,
                f"wheel travel: must be 'z', got {independent[0][1]!r}")
     roles = {k: str(v) for k, v in sus.items() if k in SUSPENSION_ROLES}
     return roles, travel
+
+
+def _check_tyre_direction(rd: Reader, load: PointLoad, data: dict) -> None:
+    """The tyre load carries +F_T, the road pushing the wheel up (eq. 13): straight up."""
+    dx, dz = load.direction
+    if not (math.isfinite(dx) and math.isfinite(dz)) or (dz > 0.0 and abs(dx) <= 1e-9):
+        return  # fine, or already reported
+    where = 'suspension.tyre_load'
+    for table in ('loads', 'forces'):
+        names = [t.get('name') for t in data.get(table, []) if isinstance(t, dict)]
+        if load.name in names:
+            where = f'{table}[{names.index(load.name)}].direction'
+            break
+    rd.element = f'(load {load.name!r}, the suspension.tyre_load)'
+    rd.err(where, 'the tyre load must point straight up, [0.0, 1.0] (it carries +F_T, the '
+           f'road pushing the wheel up: eq. 13), got {list(load.direction)}'
+           + (': it points down' if dz < 0.0 else ''))
+    rd.element = ''
 
 
 def _list_of_tables(rd: Reader, data: dict, key: str) -> list[dict]:

@@ -112,6 +112,6 @@ class Reader:
 
     def marker(self, val: Any, key: str) -> str:
         names = list(self.markers)
-        if val not in self.markers:
+        if not isinstance(val, str) or val not in self.markers:
             self.err(key, f'unknown marker {val!r}{close(str(val), names)}')
         return str(val)

@@ -524,7 +524,7 @@ class PlanarMultibodySolver:
         ``method='schur'`` (default) eliminates ``q̈`` from the augmented system with the
         constant diagonal ``M``: ``(C_q M⁻¹ C_qᵀ) λ = C_q M⁻¹ Q - γ``, then
         ``q̈ = M⁻¹ (Q - C_qᵀ λ)`` — the same solution with an m × m instead of an
-        (n + m) × (n + m) factorization per state (2.3 times faster at 400 states);
+        (n + m) × (n + m) factorization per state (cheaper);
         ``'dense'`` factorizes the assembled augmented matrix itself."""
         self.calls['augmented'] += 1
         if Cq is None:

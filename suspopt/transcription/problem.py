@@ -122,86 +122,88 @@ class VehicleProblem:
         self.opt_names = [n for n in self.design_names
                           if optimize_design and config.design[n].optimize]
         self._work_dir = tempfile.mkdtemp(prefix='suspopt-om-')
-        self.modules = multibody_modules(config) if fidelity == 'mixed' else {}
-        nt = len(self.terms_names)
+        try:  # an interrupt or a failure while building leaves no scratch directory
+            self.modules = multibody_modules(config) if fidelity == 'mixed' else {}
+            nt = len(self.terms_names)
 
-        p = self.problem = om.Problem(reports=False, work_dir=self._work_dir)
-        traj = self.traj = p.model.add_subsystem('traj', dm.Trajectory())
-        self.phases, self.specs, self._quadrature = [], [], []
-        for i, sc in enumerate(self.scenarios):
-            spec = vehicle_spec(config, sc, fidelity, self.modules)
-            phase = traj.add_phase(f's{i}', build_phase(spec, fidelity, sc))
-            self.phases.append(phase)
-            self.specs.append(spec)
-            self._quadrature.append(radau_quadrature_weights(sc.segments, sc.order, sc.horizon))
-        for name in self.design_names:
-            dv = config.design[name]
-            span = dv.upper - dv.lower if dv.upper > dv.lower else max(abs(dv.lower), 1.0)
-            traj.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[design_kind(name)],
-                               opt=True, lower=dv.lower, upper=dv.upper, ref0=dv.lower,
-                               ref=dv.lower + span, static_target=True)
-        for i, sc in enumerate(self.scenarios):
-            p.model.add_subsystem(f'quadrature_{i}', ObjectiveQuadratureComp(
-                weights=self._quadrature[i], terms=nt))
-            p.model.add_subsystem(f'objective_{i}', WeightedObjectiveComp(terms=nt))
-            # straight from the ODE: the timeseries then is on no derivative path
-            p.model.connect(f'traj.s{i}.rhs_all.dJ_dt', f'quadrature_{i}.dJ_dt')
-            p.model.connect(f'quadrature_{i}.J', f'objective_{i}.J')
-        n_sc = len(self.scenarios)
-        self.aggregate = config.objective.aggregate if n_sc > 1 else 'sum'
-        if self.aggregate == 'max':
-            ivc = p.model.add_subsystem('bound', om.IndepVarComp())
-            ivc.add_output('t', val=1.0)
-            p.model.add_subsystem('worst', WorstCaseGapComp(n=n_sc))
-            for i in range(n_sc):
-                p.model.connect(f'objective_{i}.f', f'worst.f{i}')
-            p.model.connect('bound.t', 'worst.t')
-            p.model.add_design_var('bound.t', lower=0.0, ref=1.0)
-            p.model.add_constraint('worst.gap', upper=0.0, ref=1.0)
-            p.model.add_objective('bound.t')
-            self._objective = 'bound.t'
-        else:
-            p.model.add_subsystem('objective', ScenarioObjectiveComp(
-                weights=tuple(sc.weight for sc in self.scenarios)))
-            for i in range(n_sc):
-                p.model.connect(f'objective_{i}.f', f'objective.f{i}')
-            p.model.add_objective('objective.f')
-            self._objective = 'objective.f'
+            p = self.problem = om.Problem(reports=False, work_dir=self._work_dir)
+            traj = self.traj = p.model.add_subsystem('traj', dm.Trajectory())
+            self.phases, self.specs, self._quadrature = [], [], []
+            for i, sc in enumerate(self.scenarios):
+                spec = vehicle_spec(config, sc, fidelity, self.modules)
+                phase = traj.add_phase(f's{i}', build_phase(spec, fidelity, sc))
+                self.phases.append(phase)
+                self.specs.append(spec)
+                self._quadrature.append(radau_quadrature_weights(sc.segments, sc.order, sc.horizon))
+            for name in self.design_names:
+                dv = config.design[name]
+                span = dv.upper - dv.lower if dv.upper > dv.lower else max(abs(dv.lower), 1.0)
+                traj.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[design_kind(name)],
+                                   opt=True, lower=dv.lower, upper=dv.upper, ref0=dv.lower,
+                                   ref=dv.lower + span, static_target=True)
+            for i, sc in enumerate(self.scenarios):
+                p.model.add_subsystem(f'quadrature_{i}', ObjectiveQuadratureComp(
+                    weights=self._quadrature[i], terms=nt))
+                p.model.add_subsystem(f'objective_{i}', WeightedObjectiveComp(terms=nt))
+                # straight from the ODE: the timeseries then is on no derivative path
+                p.model.connect(f'traj.s{i}.rhs_all.dJ_dt', f'quadrature_{i}.dJ_dt')
+                p.model.connect(f'quadrature_{i}.J', f'objective_{i}.J')
+            n_sc = len(self.scenarios)
+            self.aggregate = config.objective.aggregate if n_sc > 1 else 'sum'
+            if self.aggregate == 'max':
+                ivc = p.model.add_subsystem('bound', om.IndepVarComp())
+                ivc.add_output('t', val=1.0)
+                p.model.add_subsystem('worst', WorstCaseGapComp(n=n_sc))
+                for i in range(n_sc):
+                    p.model.connect(f'objective_{i}.f', f'worst.f{i}')
+                p.model.connect('bound.t', 'worst.t')
+                p.model.add_design_var('bound.t', lower=0.0, ref=1.0)
+                p.model.add_constraint('worst.gap', upper=0.0, ref=1.0)
+                p.model.add_objective('bound.t')
+            else:
+                p.model.add_subsystem('objective', ScenarioObjectiveComp(
+                    weights=tuple(sc.weight for sc in self.scenarios)))
+                for i in range(n_sc):
+                    p.model.connect(f'objective_{i}.f', f'objective.f{i}')
+                p.model.add_objective('objective.f')
 
-        self.cache_key = cache.coloring_key(config, fidelity)
-        self.use_cache = use_cache
-        cached = cache.load(self.cache_key) if use_cache else None
-        self.coloring_from_cache = cached is not None
-        opt = config.optimizer
-        self.driver = IpoptDriver(p, max_iter=opt.max_iter, tol=opt.tol,
-                                  print_level=opt.print_level, progress=progress,
-                                  watch=[self.design_var(n) for n in self.design_names],
-                                  coloring=cached, opt_settings=opt.options)
+            self.cache_key = cache.coloring_key(config, fidelity)
+            self.use_cache = use_cache
+            cached = cache.load(self.cache_key) if use_cache else None
+            self.coloring_from_cache = cached is not None
+            opt = config.optimizer
+            self.driver = IpoptDriver(p, max_iter=opt.max_iter, tol=opt.tol,
+                                      print_level=opt.print_level, progress=progress,
+                                      watch=[self.design_var(n) for n in self.design_names],
+                                      coloring=cached, opt_settings=opt.options)
 
-        self.recorder_path = None
-        if recorder is not None:
-            self.recorder_path = Path(recorder).resolve()
-            rec = om.SqliteRecorder(str(self.recorder_path), record_viewer_data=False)
-            p.add_recorder(rec)
-            p.recording_options['includes'] = ['*']
+            self.recorder_path = None
+            if recorder is not None:
+                self.recorder_path = Path(recorder).resolve()
+                rec = om.SqliteRecorder(str(self.recorder_path), record_viewer_data=False)
+                p.add_recorder(rec)
+                p.recording_options['includes'] = ['*']
 
-        # 'auto' sets up both derivative directions: the driver colors the constraint
-        # Jacobian forward and gets the objective gradient by one reverse solve
-        p.setup(mode='auto', check=False)
-        self.set_weights(config.objective.weights)
-        for i, s in enumerate(self.scales):
-            p.set_val(f'objective_{i}.scales', np.array([s[t] for t in self.terms_names]))
-        for phase, sc in zip(self.phases, self.scenarios):
-            phase.set_time_val(initial=0.0, duration=sc.horizon)
-        self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
-        p.final_setup()
-        for phase, sc in zip(self.phases, self.scenarios):
-            grid = phase.options['transcription'].grid_data
-            nodes = radau_grid(sc.segments, sc.order)[0]
-            if grid.node_ptau.shape != nodes.shape or not np.allclose(grid.node_ptau, nodes):
-                # the objective's quadrature must be the phase's own grid
-                raise ModelError('internal error: objective quadrature does not match the grid')
-        self.times = {'setup_s': time.perf_counter() - t0}
+            # 'auto' sets up both derivative directions: the driver colors the constraint
+            # Jacobian forward and gets the objective gradient by one reverse solve
+            p.setup(mode='auto', check=False)
+            self.set_weights(config.objective.weights)
+            for i, s in enumerate(self.scales):
+                p.set_val(f'objective_{i}.scales', np.array([s[t] for t in self.terms_names]))
+            for phase, sc in zip(self.phases, self.scenarios):
+                phase.set_time_val(initial=0.0, duration=sc.horizon)
+            self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
+            p.final_setup()
+            for phase, sc in zip(self.phases, self.scenarios):
+                grid = phase.options['transcription'].grid_data
+                nodes = radau_grid(sc.segments, sc.order)[0]
+                if grid.node_ptau.shape != nodes.shape or not np.allclose(grid.node_ptau, nodes):
+                    # the objective's quadrature must be the phase's own grid
+                    raise ModelError('internal error: objective quadrature does not match the grid')
+            self.times = {'setup_s': time.perf_counter() - t0}
+        except BaseException:
+            shutil.rmtree(self._work_dir, ignore_errors=True)
+            raise
 
     # ---------------------------------------------------------------- names and values
     @staticmethod
