@@ -168,7 +168,7 @@ def main() -> None:
                     rows.setdefault(f'{label}: RHS calls', {}).setdefault(v, []).append(
                         r['rhs'])
                     J.setdefault(case, {})[v] = r['J']
-            print(f'# repeat {rep + 1}/{args.repeat} done', file=sys.stderr, flush=True)
+        print(f'# repeat {rep + 1}/{args.repeat} done', file=sys.stderr, flush=True)
 
     print(f'# multibody at time-marching batch sizes — {machine()}, suspopt '
           f'{git_revision()}; medians of {args.repeat} interleaved repeats\n')
