@@ -45,8 +45,9 @@ from numpy.typing import ArrayLike
 
 from suspopt.errors import ConfigError, MultibodyError
 from suspopt.multibody.elements import FixedJoint, PointLoad, PrescribedMotion
-from suspopt.multibody.elements.base import (COORDINATES, Layout, ScalarSpringGroup, cross,
-                                             perp, rot_apply)
+from suspopt.multibody.elements.base import (COORDINATES, BodyPoints, CoincidenceJointGroup,
+                                             CoincidenceSet, Layout, ScalarSpringGroup, cross,
+                                             gather, perp, rot_apply)
 from suspopt.multibody.mechanism import GROUND, Mechanism
 
 #: a state where the linkage moves this many times faster than at its reference pose is
@@ -54,6 +55,8 @@ from suspopt.multibody.mechanism import GROUND, Mechanism
 TOGGLE_SENSITIVITY = 100.0
 #: wheel-travel steps of the travel-range check (continuation, each half of the range)
 TRAVEL_STEPS = 10
+#: batches up to this many states iterate Newton's method as a whole (see _positions)
+SMALL_BATCH = 16
 
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
@@ -119,6 +122,7 @@ class PlanarMultibodySolver:
         self.q0 = np.array([[*b.position, b.angle] for b in bodies], dtype=float).ravel()
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
+        self._inv_mass = 1.0 / self.mass_diag
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
         # markers (on bodies or on the ground)
@@ -126,6 +130,7 @@ class PlanarMultibodySolver:
         self.mk_body = np.array([idx[mk.body] for mk in mechanism.markers], dtype=int)
         mk_pts = np.array([mk.point for mk in mechanism.markers], dtype=float).reshape(-1, 2)
         self.mk_u = rot_apply(-q0e[self.mk_body, 2], mk_pts - q0e[self.mk_body, :2])
+        self._markers = BodyPoints(self.mk_body, self.mk_u)
         layout = Layout(index=idx, q0e=q0e,
                         markers={name: (int(b), u) for name, b, u in
                                  zip(self.marker_names, self.mk_body, self.mk_u)})
@@ -145,12 +150,28 @@ class PlanarMultibodySolver:
             g = type(specs[members[0]]).group([specs[k] for k in members], layout)
             g.members = np.array(members, dtype=int)
             g.rows = np.array([self.joint_rows[k] for k in members], dtype=int)
+            r = g.rows.ravel()
+            g.row_index = (slice(int(r[0]), int(r[-1]) + 1)
+                           if r.size and np.array_equal(r, np.arange(r[0], r[-1] + 1)) else r)
             # where each entry of its Jacobian blocks (ne, S, k, 3) goes in the flattened
             # C_q of the bodies and the ground (m, 3 (nb + 1))
             g.flat = (g.rows[:, None, :, None] * 3 * (nb + 1)
                       + 3 * g.bodies[:, :, None, None] + np.arange(3)).ravel()
             self.joint_groups.append(g)
         self.prescribed = [name for g in self.joint_groups if g.rheonomic for name in g.names]
+        # the coincidence joints (revolute, fixed) evaluated at once in the analyses: C_q is
+        # their constant entries, then their arms, then the other groups' blocks
+        coinc = [g for g in self.joint_groups if isinstance(g, CoincidenceJointGroup)]
+        self._coincidences = (CoincidenceSet(coinc, [g.rows for g in coinc], nb, self.m)
+                              if coinc else None)
+        self._others = [(gi, g) for gi, g in enumerate(self.joint_groups)
+                        if not isinstance(g, CoincidenceJointGroup)]
+        for _, g in self._others:  # g.flat in C_q (m, n), without the ground's columns
+            row, col = np.divmod(g.flat, 3 * (nb + 1))
+            g.flat_keep = np.flatnonzero(col < self.n)
+            g.flat_mn = (row * self.n + col)[g.flat_keep]
+        self._all_coincident = (not self._others and self.m > 0 and np.array_equal(
+            self._coincidences.rows, np.arange(self.m)))
         # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
         # one matrix (2 nj, m), where that block does not depend on q
         self._first_force = np.zeros((len(specs), 2, self.m))
@@ -159,6 +180,10 @@ class PlanarMultibodySolver:
             self._first_force[g.members[:, None, None], np.arange(2)[:, None],
                               g.rows[:, None, :]] = J0.transpose(0, 2, 1)
         self._first_force = self._first_force[:self.nj].reshape(2 * self.nj, self.m)
+        self._first_force_T = np.ascontiguousarray(self._first_force.T)
+        # the groups whose first-body force needs q: (group, its members among the joints)
+        self._moving_force = [(g, g.members < self.nj) for g in self.joint_groups
+                              if not g.constant_force_jacobian and np.any(g.members < self.nj)]
 
         # force elements: the loads, then [[forces]]
         fspecs = list(mechanism.loads) + list(mechanism.forces)
@@ -172,6 +197,7 @@ class PlanarMultibodySolver:
                              for k, name in enumerate(g.names)}
         for g in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
             g.all_zero = not any(np.any(v) for v in g.defaults.values())
+            g.given = frozenset()  # parameters given at run time (see _force_values)
             scatter = np.zeros((g.bodies.size, 3, nb + 1, 3))
             scatter[np.arange(g.bodies.size), :, g.bodies.ravel()] = np.eye(3)
             g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, :self.n]
@@ -179,6 +205,12 @@ class PlanarMultibodySolver:
         self._load_columns = {gi: np.array([self.load_names.index(n) for n in g.names])
                               for gi, g in enumerate(self.force_groups)
                               if isinstance(g.specs[0], PointLoad)}
+        gravity = np.asarray(mechanism.gravity, dtype=float)
+        self._gravity_force = None  # m g on every body (n,), None without gravity
+        if np.any(gravity):
+            Qg = np.zeros((nb, 3))
+            Qg[:, :2] += self.mass_diag.reshape(nb, 3)[:, :1] * gravity
+            self._gravity_force = Qg.ravel()
 
         # coordinate partitioning
         self.ind = np.array([3 * idx[b] + COORDINATES.index(c)
@@ -214,7 +246,9 @@ class PlanarMultibodySolver:
     def _ext(self, q: np.ndarray) -> np.ndarray:
         """(N, nb+1, 3): body coordinates with the ground appended."""
         N = q.shape[0]
-        return np.concatenate([q.reshape(N, self.nb, 3), np.zeros((N, 1, 3))], axis=1)
+        qe = np.zeros((N, self.n + 3))
+        qe[:, :self.n] = q
+        return qe.reshape(N, self.nb + 1, 3)
 
     def _drives(self, motion: Motion | None, N: int) -> list[np.ndarray | None]:
         """Per joint group: its run-time drive values (see ``JointGroup.drive``), or None
@@ -245,10 +279,11 @@ class PlanarMultibodySolver:
                 nu[:, g.rows] = g.velocity_term(d)
         return nu
 
-    def _force_values(self, N: int, loads: np.ndarray | None,
-                      params: Params | None) -> list[dict[str, np.ndarray] | None]:
+    def _force_values(self, N: int, loads: np.ndarray | None, params: Params | None,
+                      only: int | None = None) -> list[dict[str, np.ndarray] | None]:
         """Per force group: each parameter's values (N, ne), the file's unless given; None
-        for a group whose values are all zero (it applies no force)."""
+        for a group whose values are all zero (it applies no force). ``only``: that group's
+        entry alone (the others None)."""
         given: dict[int, dict[str, list]] = {}
         for name, vals in (params or {}).items():
             if name not in self._force_group:
@@ -261,19 +296,28 @@ class PlanarMultibodySolver:
                                      f'parameter {p!r} (parameters: '
                                      f'{", ".join(self.force_groups[gi].parameters)})')
                 given.setdefault(gi, {}).setdefault(p, []).append((k, val))
-        out: list[dict[str, np.ndarray] | None] = []
+        out: list[dict[str, np.ndarray] | None] = [None] * len(self.force_groups)
         for gi, g in enumerate(self.force_groups):
+            if only is not None and gi != only:
+                continue
             from_loads = loads is not None and gi in self._load_columns
             if gi not in given and not from_loads and g.all_zero:
-                out.append(None)
                 continue
-            values = {p: (np.asarray(loads, dtype=float)[:, self._load_columns[gi]]
-                          if from_loads and p == 'magnitude' else np.tile(v, (N, 1)))
-                      for p, v in g.defaults.items()}
+            values = {}
+            mine = given.get(gi, {})
+            for p, v in g.defaults.items():
+                if from_loads and p == 'magnitude':
+                    values[p] = np.asarray(loads, dtype=float)[:, self._load_columns[gi]]
+                else:
+                    values[p] = a = np.empty((N, v.size))
+                    if len(mine.get(p, ())) < v.size:  # (all given: no defaults left)
+                        a[...] = v
             for p, items in given.get(gi, {}).items():
+                a = values[p]
                 for k, val in items:
-                    values[p][:, k] = np.broadcast_to(np.asarray(val, dtype=float), (N,))
-            out.append(values)
+                    val = np.asarray(val, dtype=float)
+                    a[:, k] = val if val.shape in ((), (N,)) else np.broadcast_to(val, (N,))
+            out[gi] = values
         return out
 
     # ---------------------------------------------------------------- kinematics
@@ -300,6 +344,53 @@ class PlanarMultibodySolver:
             Cq[:, g.flat] = J.reshape(N, -1)
         return Cq.reshape(N, self.m, -1)[:, :, :self.n]
 
+    def _analysis(self, q: np.ndarray, drives: list[np.ndarray | None]
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """``C`` (N, m) and ``C_q`` (N, m, n) at ``q`` (N, n) at once (the position
+        analysis' Newton iterations): what :meth:`constraints` and
+        :meth:`constraint_jacobian` give, the coincidence joints evaluated together (and
+        their pool, see :meth:`_gamma_all`)."""
+        N = q.shape[0]
+        co = self._coincidences
+        if co is None:
+            Cq = np.zeros((N, self.m * self.n))
+            v = None
+        else:
+            v = co.pool(q)
+            Cq = co.jacobian(v)
+            if self._all_coincident:
+                return co.residual(v), Cq.reshape(N, self.m, self.n), v
+        C = np.empty((N, self.m))
+        if co is not None:
+            C[:, co.rows] = co.residual(v)
+        qe = self._ext(q)
+        for gi, g in self._others:
+            Cg, J = g.residual_jacobian(qe, drives[gi])
+            C[:, g.row_index] = Cg.reshape(N, -1)
+            Cq[:, g.flat_mn] = J.reshape(N, -1).take(g.flat_keep, axis=1)
+        return C, Cq.reshape(N, self.m, self.n), v
+
+    def _gamma_all(self, q: np.ndarray, qd: np.ndarray, drives: list[np.ndarray | None],
+                   qe: np.ndarray | None = None, qde: np.ndarray | None = None,
+                   pool: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`gamma` with the coincidence joints evaluated together (``qe``, ``qde``:
+        :meth:`_ext` of ``q`` and ``qd``; ``pool``: the coincidence joints' at ``q``, if the
+        caller has them)."""
+        co = self._coincidences
+        qde = self._ext(qd) if qde is None else qde
+        if co is None:
+            return self._gamma(self._ext(q) if qe is None else qe, qde, drives)
+        gc = co.gamma(co.pool(q) if pool is None else pool, qde)
+        if self._all_coincident:
+            return gc
+        qe = self._ext(q) if qe is None else qe
+        N = q.shape[0]
+        g = np.empty((N, self.m))
+        g[:, co.rows] = gc
+        for gi, grp in self._others:
+            g[:, grp.row_index] = grp.gamma(qe, qde, drives[gi]).reshape(N, -1)
+        return g
+
     def constraint_rate(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None,
                         Cq: np.ndarray | None = None) -> np.ndarray:
         """``Ċ = C_q q̇ - ν`` (N, m); zero at consistent velocities."""
@@ -310,30 +401,34 @@ class PlanarMultibodySolver:
     def gamma(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None) -> np.ndarray:
         """Right-hand side of the acceleration constraints ``γ = -(C_q q̇)_q q̇ - C_tt``,
         (N, m)."""
-        qe, qde = self._ext(q), self._ext(qd)
-        g = np.zeros((q.shape[0], self.m))
-        for grp, d in zip(self.joint_groups, self._drives(motion, q.shape[0])):
-            g[:, grp.rows] = grp.gamma(qe, qde, d)
+        return self._gamma(self._ext(q), self._ext(qd), self._drives(motion, q.shape[0]))
+
+    def _gamma(self, qe: np.ndarray, qde: np.ndarray,
+               drives: list[np.ndarray | None]) -> np.ndarray:
+        N = qe.shape[0]
+        g = np.empty((N, self.m))
+        for grp, d in zip(self.joint_groups, drives):
+            g[:, grp.row_index] = grp.gamma(qe, qde, d).reshape(N, -1)
         return g
 
     def marker_positions(self, q: np.ndarray) -> np.ndarray:
         """Global positions of all markers, (N, n_markers, 2)."""
-        qe = self._ext(q)
-        return qe[:, self.mk_body, :2] + rot_apply(qe[:, self.mk_body, 2], self.mk_u)
+        qb, _, _, arm = self._markers.state(self._ext(q))
+        return qb[..., :2] + arm
 
     def marker_velocities(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """Global velocities of all markers, (N, n_markers, 2)."""
-        qe, qde = self._ext(q), self._ext(qd)
-        arm = perp(rot_apply(qe[:, self.mk_body, 2], self.mk_u))
-        return qde[:, self.mk_body, :2] + arm * qde[:, self.mk_body, 2, None]
+        arm = perp(self._markers.arms(self._ext(q)))
+        vb = gather(self._ext(qd), self._markers.coords)
+        return vb[..., :2] + arm * vb[..., 2, None]
 
     def marker_accelerations(self, q: np.ndarray, qd: np.ndarray,
                              qdd: np.ndarray) -> np.ndarray:
         """Global accelerations of all markers, ``r̈ + B u φ̈ - A u φ̇²``, (N, n_markers, 2)."""
-        qe, qde, qdde = self._ext(q), self._ext(qd), self._ext(qdd)
-        arm = rot_apply(qe[:, self.mk_body, 2], self.mk_u)
-        return (qdde[:, self.mk_body, :2] + perp(arm) * qdde[:, self.mk_body, 2, None]
-                - arm * qde[:, self.mk_body, 2, None] ** 2)
+        arm = self._markers.arms(self._ext(q))
+        w = gather(self._ext(qd), self._markers.phi)
+        ab = gather(self._ext(qdd), self._markers.coords)
+        return ab[..., :2] + perp(arm) * ab[..., 2, None] - arm * w[..., None] ** 2
 
     def marker_reference(self) -> np.ndarray:
         """Marker positions at the reference pose, (n_markers, 2)."""
@@ -358,20 +453,28 @@ class PlanarMultibodySolver:
         magnitudes ``loads`` (N, n_loads; order :attr:`load_names`) and ``params``.
         ``qd`` is needed when a damper has non-zero damping. An element whose parameters
         are all zero contributes nothing and is skipped."""
+        values = self._force_values(q.shape[0], loads, params)
+        if all(v is None for v in values):
+            return self._forces(q, None, None, values)[0]
+        return self._forces(q, self._ext(q), None if qd is None else self._ext(qd), values)[0]
+
+    def _forces(self, q: np.ndarray, qe: np.ndarray | None, qde: np.ndarray | None,
+                values: list[dict[str, np.ndarray] | None],
+                geometry: dict | None = None) -> tuple[np.ndarray, list]:
+        """:meth:`generalized_forces` from the groups' values, and what each group computed
+        on the way (:meth:`ForceGroup.forces`; None for a group without force);
+        ``geometry``: groups' :meth:`ScalarSpringGroup.geometry` at ``qe`` by group."""
         N = q.shape[0]
         Q = np.zeros((N, self.n))
-        g = np.asarray(self.mechanism.gravity, dtype=float)
-        if np.any(g):
-            Q.reshape(N, self.nb, 3)[:, :, :2] += self.mass_diag.reshape(self.nb, 3)[:, :1] * g
-        active = [(grp, v) for grp, v in zip(self.force_groups,
-                                              self._force_values(N, loads, params))
-                  if v is not None]
-        if active:
-            qe = self._ext(q)
-            qde = None if qd is None else self._ext(qd)
-            for grp, v in active:
-                Q += grp.generalized_force(qe, qde, v).reshape(N, -1) @ grp.scatter
-        return Q
+        if self._gravity_force is not None:
+            Q += self._gravity_force
+        parts: list = [None] * len(self.force_groups)
+        for gi, (grp, v) in enumerate(zip(self.force_groups, values)):
+            if v is not None:
+                Qg, parts[gi] = grp.forces(qe, qde, v, None if geometry is None
+                                           else geometry.get(gi))
+                Q += Qg.reshape(N, -1) @ grp.scatter
+        return Q, parts
 
     def spring(self, name: str, q: np.ndarray, qd: np.ndarray | None = None,
                params: Params | None = None, qdd: np.ndarray | None = None) -> SpringState:
@@ -385,14 +488,23 @@ class PlanarMultibodySolver:
                              f'(springs: {springs})')
         qe = self._ext(q)
         qde = None if qd is None else self._ext(qd)
-        values = self._force_values(q.shape[0], None, params)[gi]
+        values = self._force_values(q.shape[0], None, params, only=gi)[gi]
         if values is None:  # all zero
             values = {p: np.zeros((q.shape[0], len(grp.names))) for p in grp.parameters}
-        ell, ell_d, f, grad = grp.tension(qe, qde, values)
-        acc = np.full(q.shape[0], np.nan)
+        geo = grp.geometry(qe)
+        return self._spring_state(gi, k, qe, qde, grp.tension(qe, qde, values, geo),
+                                  grp.directions(qe, geo)[:, k], qdd, geo)
+
+    def _spring_state(self, gi: int, k: int, qe: np.ndarray, qde: np.ndarray | None,
+                      tension: tuple[np.ndarray, ...], direction: np.ndarray,
+                      qdd: np.ndarray | None = None, geometry=None) -> SpringState:
+        """:meth:`spring` from its group's :meth:`~ScalarSpringGroup.tension` and the
+        element's line of action (N, 2, 2)."""
+        grp = self.force_groups[gi]
+        ell, ell_d, f, grad = tension
+        acc = np.full(qe.shape[0], np.nan)
         if qdd is not None and qde is not None:
-            acc = (grp.rate(grad, self._ext(qdd)) + grp.quadratic(qe, qde))[:, k]
-        direction = grp.directions(qe)[:, k]
+            acc = (grp.rate(grad, self._ext(qdd)) + grp.quadratic(qe, qde, geometry))[:, k]
         return SpringState(length=ell[:, k], deflection=ell[:, k] - grp.free_length[k],
                            rate=ell_d[:, k], acceleration=acc, force=f[:, k],
                            direction=direction, end_forces=f[:, k, None, None] * direction,
@@ -415,16 +527,20 @@ class PlanarMultibodySolver:
         (n + m) × (n + m) factorization per state (cheaper);
         ``'dense'`` factorizes the assembled augmented matrix itself."""
         self.calls['augmented'] += 1
-        N, n, m = q.shape[0], self.n, self.m
         if Cq is None:
             Cq = self.constraint_jacobian(q)
         rhs_c = self.gamma(q, qd, motion)
+        return self._augmented(q, qd, Q, Cq, rhs_c, baumgarte, method, motion)
+
+    def _augmented(self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='schur', motion=None):
+        """:meth:`solve_augmented` given ``C_q`` and ``γ``."""
+        N, n, m = q.shape[0], self.n, self.m
         if baumgarte is not None:
             alpha, beta = baumgarte
             rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
                      - beta**2 * self.constraints(q, motion))
         if method == 'schur':
-            CMi = Cq * (1.0 / self.mass_diag)
+            CMi = Cq * self._inv_mass
             lam = _batched_solve(CMi @ Cq.transpose(0, 2, 1),
                                  np.einsum('nij,nj->ni', CMi, Q) - rhs_c,
                                  'augmented system (eq. 11)')
@@ -456,13 +572,18 @@ class PlanarMultibodySolver:
 
         Joints whose force direction turns with the bodies (prismatic) need the positions
         ``q``; for the others the force follows from ``λ`` alone."""
-        if q is not None:
-            return self.reactions(q, lam)[:, :self.nj, 0, :2]
-        moving = [n for g in self.joint_groups if not g.constant_force_jacobian for n in g.names]
-        if moving:
-            raise ValueError(f'{self.mechanism.name}: the reactions of {moving} depend on the '
-                             'pose: pass q')
-        return -(lam @ self._first_force.T).reshape(lam.shape[0], self.nj, 2)
+        if q is None:
+            moving = [n for g in self.joint_groups if not g.constant_force_jacobian
+                      for n in g.names]
+            if moving:
+                raise ValueError(f'{self.mechanism.name}: the reactions of {moving} depend on '
+                                 'the pose: pass q')
+        out = -(lam @ self._first_force_T).reshape(lam.shape[0], self.nj, 2)
+        if q is not None and self._moving_force:
+            qe = self._ext(q)
+            for g, mine in self._moving_force:
+                out[:, g.members[mine]] = g.reactions(qe, lam[:, g.rows])[:, mine, 0, :2]
+        return out
 
     def body_reaction(self, body: str, q: np.ndarray, lam: np.ndarray,
                       point: ArrayLike | None = None,
@@ -519,9 +640,22 @@ class PlanarMultibodySolver:
         q_ind = np.asarray(q_ind, dtype=float)
         return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]))
 
+    def _analysed_positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None,
+                            motion: Motion | None = None):
+        """:meth:`positions` and, at the result, ``C_q`` (N, m, n), each state's
+        ``max |C|`` (N,), as :meth:`constraint_jacobian` and :meth:`constraints` give them,
+        and the coincidence joints' pool (see :meth:`_gamma_all`)."""
+        self.calls['positions'] += 1
+        q_ind = np.asarray(q_ind, dtype=float)
+        return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]), full=True)
+
     def _positions(self, q_ind: np.ndarray, guess: np.ndarray | None,
-                   drives: list[np.ndarray | None]) -> np.ndarray:
-        if not np.all(np.isfinite(q_ind)):
+                   drives: list[np.ndarray | None], full: bool = False):
+        """:meth:`positions`; with ``full``, also ``C_q`` (N, m, n), ``max |C|`` (N,) and
+        the coincidence joints' pool (or None) of each state at its result, from its last
+        Newton iteration (what :meth:`constraint_jacobian` and :meth:`constraints` give
+        there)."""
+        if not np.logical_and.reduce(np.isfinite(q_ind), axis=None):
             raise MultibodyError(f'{self.mechanism.name}: non-finite independent coordinate')
         N = q_ind.shape[0]
         if guess is None:  # the reference pose moved along its tangent
@@ -535,26 +669,56 @@ class PlanarMultibodySolver:
         else:
             q = guess.copy()
         q[:, self.ind] = q_ind
-        todo = None  # the states still iterating (None: all of them)
+        # the states still iterating (None: all of them). A small batch iterates as a
+        # whole, its converged states held where they are (a zero step); a large one
+        # iterates only the states still open
+        todo = None
+        small = N <= SMALL_BATCH
+        out = None  # (full) C_q, max |C| and pool of the states converged so far
+
+        def keep(done):  # (full) the states ``done`` of this iteration end here
+            nonlocal out
+            if out is None:
+                out = (np.empty((N, self.m, self.n)), np.empty(N),
+                       None if pool is None else np.empty((N, pool.shape[1])))
+            idx = np.flatnonzero(done) if todo is None else todo[done]
+            out[0][idx] = Cq[done]
+            out[1][idx] = err[done]
+            if pool is not None:
+                out[2][idx] = pool[done]
+
         for it in range(self.newton_max_iter + 1):
             qa = q if todo is None else q[todo]
-            qe = self._ext(qa)
-            C = np.empty((qa.shape[0], self.m))
-            blocks = []
-            for g, d in zip(self.joint_groups,
-                            drives if todo is None else self._subset(drives, todo)):
-                C[:, g.rows], J = g.residual_jacobian(qe, d)
-                blocks.append(J)
-            open_ = np.max(np.abs(C), axis=1, initial=0.0) >= self.newton_tol
-            if not np.any(open_):
-                return q
+            C, Cq, pool = self._analysis(qa, drives if todo is None
+                                         else self._subset(drives, todo))
+            err = np.maximum.reduce(np.abs(C), axis=1, initial=0.0)
+            open_ = err >= self.newton_tol
+            n_open = np.count_nonzero(open_)
+            if not n_open:
+                if todo is None:
+                    return (q, Cq, err, pool) if full else q
+                if full:
+                    keep(~open_)
+                return (q,) + out if full else q
             if it == self.newton_max_iter:
                 break
-            if not np.all(open_):
-                todo = np.flatnonzero(open_) if todo is None else todo[open_]
-                qe, qa, C, blocks = qe[open_], qa[open_], C[open_], [b[open_] for b in blocks]
-            step = _batched_solve(self._jacobian(qe, blocks)[:, :, self.dep], C,
-                                  'position analysis C(q) = 0')
+            step = None
+            if n_open < qa.shape[0]:
+                if small:
+                    try:
+                        step = _batched_solve(Cq.take(self.dep, 2), C,
+                                              'position analysis C(q) = 0')
+                    except MultibodyError:  # singular at a converged state
+                        small = False
+                    else:
+                        step[~open_] = 0.0
+                if not small:
+                    if full:
+                        keep(~open_)
+                    todo = np.flatnonzero(open_) if todo is None else todo[open_]
+                    qa, C, Cq = qa[open_], C[open_], Cq[open_]
+            if step is None:
+                step = _batched_solve(Cq.take(self.dep, 2), C, 'position analysis C(q) = 0')
             if todo is None:
                 q[:, self.dep] -= step
             else:
@@ -575,24 +739,35 @@ class PlanarMultibodySolver:
         (``∂q_dep/∂q_ind = -C_q,dep⁻¹ C_q,ind``, solved with the same factorization) is a
         :class:`MultibodyError`: the mechanism is at or near a singular (toggle) position,
         the edge of its range of motion, where its dynamics have no finite solution."""
-        qd = np.zeros_like(q)
-        qd[:, self.ind] = qd_ind
+        N = q.shape[0]
+        qd = np.zeros_like(q)  # q's memory order (what einsum on qd sums in)
         if Cq is None:
             Cq = self.constraint_jacobian(q)
-        C_ind = Cq[:, :, self.ind]
-        rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
-        nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
-        if nu is not None:
-            rhs = rhs + nu
+        if self.dof == 1:
+            i = int(self.ind[0])
+            qd[:, i:i + 1] = qd_ind
+            C_ind = Cq[:, :, i]
+            # the sum of one product, from zero (the signs of zeros) as einsum's
+            rhs = -(C_ind * qd[:, i:i + 1] + 0.0)
+        else:
+            qd[:, self.ind] = qd_ind
+            C_ind = Cq.take(self.ind, 2)
+            rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
+        if motion:
+            nu = self._nu(self._drives(motion, N), N)
+            if nu is not None:
+                rhs = rhs + nu
         if max_sensitivity is None:
-            qd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'velocity analysis')
+            qd[:, self.dep] = _batched_solve(Cq.take(self.dep, 2), rhs, 'velocity analysis')
             return qd
-        x = _batched_solve(Cq[:, :, self.dep], np.concatenate([rhs[..., None], -C_ind], -1),
-                           'velocity analysis')
-        qd[:, self.dep] = x[..., 0]
-        ratio = np.max(np.abs(x[..., 1:]), axis=(1, 2)) / self.sensitivity0
-        worst = int(np.argmax(ratio))
-        if ratio[worst] > max_sensitivity:
+        b = np.empty((N, self.m, 1 + self.dof))
+        b[:, :, 0] = rhs
+        np.negative(C_ind, out=b[:, :, 1] if self.dof == 1 else b[:, :, 1:])
+        x = _batched_solve(Cq.take(self.dep, 2), b, 'velocity analysis')
+        qd[:, self.dep] = x[:, :, 0]
+        ratio = np.maximum.reduce(np.abs(x[:, :, 1:]).reshape(N, -1), axis=1) / self.sensitivity0
+        if np.maximum.reduce(ratio) > max_sensitivity:
+            worst = int(ratio.argmax())
             raise MultibodyError(
                 f'{self.mechanism.name}: near a singular (toggle) position at independent '
                 f'coordinate(s) {np.round(q[worst, self.ind], 6).tolist()}: the linkage '
@@ -673,15 +848,49 @@ class PlanarMultibodySolver:
                 if np.max(y[rows], initial=0.0) > 0.1 * np.max(y)]
 
 
+try:  # the gufunc behind np.linalg.solve, without its argument handling (small systems)
+    from numpy.linalg import _umath_linalg
+    from numpy.linalg._linalg import _raise_linalgerror_singular
+    _solve = _umath_linalg.solve
+    try:  # np.linalg.solve's error state, made once
+        from numpy._core._ufunc_config import _extobj_contextvar, _make_extobj
+        _SOLVE_ERRORS = _make_extobj(call=_raise_linalgerror_singular, invalid='call',
+                                     over='ignore', divide='ignore', under='ignore')
+
+        def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+            token = _extobj_contextvar.set(_SOLVE_ERRORS)
+            try:
+                return _solve(A, b, signature='dd->d')
+            finally:
+                _extobj_contextvar.reset(token)
+    except (ImportError, AttributeError, TypeError):  # pragma: no cover - NumPy < 2
+        def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+            with np.errstate(call=_raise_linalgerror_singular, invalid='call',
+                             over='ignore', divide='ignore', under='ignore'):
+                return _solve(A, b, signature='dd->d')
+except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
+    _lapack_solve = np.linalg.solve
+
+
 def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     """Solve a batch of small dense systems ``A`` (N, m, m) for right-hand sides ``b``
     (N, m) or (N, m, k); a singular or non-finite one is a MultibodyError."""
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
-        raise MultibodyError(f'non-finite value in the {what}')
+    vector = b.ndim != A.ndim
+    rhs = b[..., None] if vector else b
+    solve = (_lapack_solve if A.dtype == np.float64 and rhs.dtype == np.float64
+             and A.ndim == 3 else np.linalg.solve)
     try:
-        if b.ndim == A.ndim:
-            return np.linalg.solve(A, b)
-        return np.linalg.solve(A, b[..., None])[..., 0]
+        x = solve(A, rhs)
     except np.linalg.LinAlgError:
+        _finite(A, b, what)
         raise MultibodyError(f'singular {what}: the mechanism is in a singular '
                              'configuration') from None
+    # a non-finite input gives a non-finite solution: check the inputs only then
+    if not np.isfinite(np.add.reduce(x, axis=None)):
+        _finite(A, b, what)
+    return x[..., 0] if vector else x
+
+
+def _finite(A: np.ndarray, b: np.ndarray, what: str) -> None:
+    if not (np.isfinite(A).all() and np.isfinite(b).all()):
+        raise MultibodyError(f'non-finite value in the {what}')

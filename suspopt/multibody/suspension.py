@@ -55,7 +55,7 @@ import numpy as np
 
 from suspopt.errors import ConfigError
 from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
-from suspopt.multibody.elements.base import cross, rot_apply
+from suspopt.multibody.elements.base import cross, perp, rot_apply
 from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
 from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver
 
@@ -142,7 +142,13 @@ class SuspensionModule:
             raise ConfigError(f'{mechanism.name}: the suspension spring {self.spring_name!r} '
                               f'must connect the chassis side to the linkage (ends {ends})')
         self.chassis_end = chassis[0]
+        self._spring_group = s._force_group[self.spring_name]
         self.marker_ref = s.marker_reference()
+        # the wheel marker: its body's coordinates in q, its point in body axes (u, perp(u))
+        b = int(s.mk_body[self.wheel])
+        self._wheel_coords = None if b == s.nb else (3 * b + 1, 3 * b + 2)
+        (ux, uz), (px, pz) = s.mk_u[self.wheel], perp(s.mk_u[self.wheel])
+        self._wheel_u = (float(ux), float(uz), float(px), float(pz))
         self.ind0 = s.q0[s.ind[0]]
         if mount == 'chassis':
             f = s.body_names.index(self.frame)
@@ -156,7 +162,11 @@ class SuspensionModule:
         self.reused = 0  # queries answered from a remembered analysis
         self._poses: OrderedDict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = \
             OrderedDict()
-        self._states: OrderedDict[bytes, ModuleKinematics] = OrderedDict()
+        self._states: OrderedDict[bytes, tuple] = OrderedDict()  # (kinematics, max |C|, pool)
+        #: the last kinematics' (q, mount pose, max |C|): what constraint_residual returns
+        self._last_residual: tuple | None = None
+        #: and its (q, the joints' pool at q) (see PlanarMultibodySolver._gamma_all)
+        self._last_pool: tuple | None = None
 
     @staticmethod
     def _remember(memory: OrderedDict, key: bytes, value, size: int) -> None:
@@ -165,19 +175,30 @@ class SuspensionModule:
             memory.popitem(last=False)
 
     def _pose(self, z_W: np.ndarray, guess: np.ndarray | None, mount=None, motion=None):
-        """Position analysis at wheel travels ``z_W`` (and mount poses): (q, C_q, marker
-        positions)."""
-        key = z_W.tobytes() + b''.join(m.tobytes() for m in (mount or ())[::2])
+        """Position analysis at wheel travels ``z_W`` (and mount poses): (q, C_q, the wheel
+        marker's vertical displacement (N,), its arm ``A u`` (N, 2), ``max |C|`` (N,))."""
+        key = z_W.tobytes()
+        if mount is not None:
+            key += mount[0].tobytes() + mount[2].tobytes()
         pose = self._poses.get(key)
         if pose is not None:
             self.reused += 1
             return pose
         s = self.solver
-        q = s.positions(z_W[:, None] + self.ind0, guess, motion)
-        Cq = s.constraint_jacobian(q)
-        pose = (q, Cq, s.marker_positions(q) - self.marker_ref)
+        q, Cq, res, pool = s._analysed_positions(z_W[:, None] + self.ind0, guess, motion)
+        N = q.shape[0]
+        if self._wheel_coords is None:  # a wheel marker on the ground
+            q_W, arm_x = np.zeros(N), np.zeros(N)
+        else:  # the marker's z and its arm's x: A(φ) u = cos φ u + sin φ perp(u)
+            iz, iphi = self._wheel_coords
+            ux, uz, px, pz = self._wheel_u
+            c, sn = np.cos(q[:, iphi]), np.sin(q[:, iphi])
+            arm_x = c * ux + sn * px
+            q_W = (q[:, iz] + (c * uz + sn * pz)) - self.marker_ref[self.wheel, 1]
+        pose = (q, Cq, q_W, arm_x, res, pool)
         for a in pose:
-            a.flags.writeable = False
+            if a is not None:
+                a.flags.writeable = False
         self._remember(self._poses, key, pose, self.memory)
         return pose
 
@@ -200,22 +221,32 @@ class SuspensionModule:
         if pose is not None:
             pose = tuple(np.ascontiguousarray(np.broadcast_to(p, z_W.shape), dtype=float)
                          for p in pose)
-        key = z_W.tobytes() + v_W.tobytes() + b''.join(p.tobytes() for p in pose or ())
+        key = z_W.tobytes() + v_W.tobytes()
+        if pose is not None:
+            key += b''.join(p.tobytes() for p in pose)
         try:
-            kin = self._states.get(key)
-            if kin is not None:
+            known = self._states.get(key)
+            if known is not None:
                 self.reused += 1
+                kin, residual, pool = known
             else:
                 s = self.solver
                 motion = None if pose is None else self.mount_motion(pose)
-                q, Cq, pos = self._pose(z_W, guess, pose, motion)
+                q, Cq, q_W, arm_x, res, pool = self._pose(z_W, guess, pose, motion)
                 qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity,
                                   motion=motion)
                 qd.flags.writeable = False
-                vel = s.marker_velocities(q, qd)
-                kin = ModuleKinematics(q_W=pos[:, self.wheel, 1], qd_W=vel[:, self.wheel, 1],
+                if self._wheel_coords is None:
+                    qd_W = np.zeros(q.shape[0])
+                else:  # (r + B u φ)_z of the wheel marker
+                    iz, iphi = self._wheel_coords
+                    qd_W = qd[:, iz] + arm_x * qd[:, iphi]
+                kin = ModuleKinematics(q_W=q_W, qd_W=qd_W,
                                        state=MultibodyState(q=q, qd=qd, Cq=Cq), pose=pose)
-                self._remember(self._states, key, kin, self.memory)
+                residual = float(np.maximum.reduce(res, initial=0.0))
+                self._remember(self._states, key, (kin, residual, pool), self.memory)
+            self._last_residual = (kin.state.q, kin.pose, residual)
+            self._last_pool = (kin.state.q, pool)
         finally:
             self.time_s += time.perf_counter() - t0
         # a fresh state object: dynamics() attaches accelerations and multipliers to it
@@ -260,8 +291,22 @@ class SuspensionModule:
     def axis_vertical(self, state: MultibodyState) -> np.ndarray:
         """``e_z``: vertical component of the unit vector from the spring's linkage end to
         its chassis end, (N,)."""
-        sp = self.solver.spring(self.spring_name, state.q)
-        return sp.direction[:, 1 - self.chassis_end, 1]
+        return self._spring_directions(self.solver._ext(state.q))[:, 1 - self.chassis_end, 1]
+
+    def _spring_directions(self, qe: np.ndarray, geometry=None) -> np.ndarray:
+        """The spring's line of action at both ends (N, 2, 2), see :meth:`spring`."""
+        gi, k = self._spring_group
+        return self.solver.force_groups[gi].directions(qe, geometry)[:, k]
+
+    def _spring_force(self, qe, qde, values, parts) -> np.ndarray:
+        """The spring's tension (N,) from the force groups' values and what their
+        generalized forces computed on the way (:meth:`PlanarMultibodySolver._forces`)."""
+        gi, k = self._spring_group
+        tension = parts[gi]
+        if tension is None:
+            grp = self.solver.force_groups[gi]
+            tension = grp.tension(qe, qde, values[gi], grp.geometry(qe))
+        return tension[2][:, k]
 
     def dynamics(self, state: MultibodyState, z_M: np.ndarray, v_M: np.ndarray,
                  k_S: np.ndarray, c_S: np.ndarray, F_T: np.ndarray
@@ -276,16 +321,29 @@ class SuspensionModule:
         t0 = time.perf_counter()
         s = self.solver
         try:
-            loads = np.zeros((state.q.shape[0], len(s.load_names)))
+            q, qd = state.q, state.qd
+            N = q.shape[0]
+            qe, qde = s._ext(q), s._ext(qd)
+            loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
-            params = self.spring_params(state, z_M, v_M, k_S, c_S)
-            Q = s.generalized_forces(state.q, loads, state.qd, params)
-            state.qdd, state.lam = s.solve_augmented(state.q, state.qd, Q, Cq=state.Cq)
-            sp = s.spring(self.spring_name, state.q, state.qd, params)
-            F_S = -sp.force * sp.direction[:, 1 - self.chassis_end, 1]
+            gi = self._spring_group[0]
+            geo = {gi: s.force_groups[gi].geometry(qe)}  # the spring's, once
+            e_z = self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1]
+            params = {self.spring_name: {'stiffness': k_S, 'damping': c_S,  # spring_params
+                                         'preload': e_z * (k_S * z_M + c_S * v_M)}}
+            values = s._force_values(N, loads, params)
+            Q, parts = s._forces(q, qe, qde, values, geo)
+            # solve_augmented(q, qd, Q, Cq=state.Cq)
+            s.calls['augmented'] += 1
+            Cq = s.constraint_jacobian(q) if state.Cq is None else state.Cq
+            last = self._last_pool
+            pool = last[1] if last is not None and last[0] is q else None
+            state.qdd, state.lam = s._augmented(
+                q, qd, Q, Cq, s._gamma_all(q, qd, s._drives(None, N), qe, qde, pool))
+            F_S = -self._spring_force(qe, qde, values, parts) * e_z
         finally:
             self.time_s += time.perf_counter() - t0
-        return state.qdd[:, s.ind[0]], F_S, s.joint_reactions(state.lam, state.q)
+        return state.qdd[:, s.ind[0]], F_S, s.joint_reactions(state.lam, q)
 
     def mount_response(self, kin: ModuleKinematics, k_S: np.ndarray, c_S: np.ndarray,
                        F_T: np.ndarray, rotation: bool = False,
@@ -312,7 +370,11 @@ class SuspensionModule:
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
             params = {self.spring_name: {'stiffness': k_S, 'damping': c_S}}
-            Q = s.generalized_forces(state.q, loads, state.qd, params)
+            qe, qde = s._ext(state.q), s._ext(state.qd)
+            gi = self._spring_group[0]
+            geo = {gi: s.force_groups[gi].geometry(qe)}
+            values = s._force_values(N, loads, params)
+            Q, parts = s._forces(state.q, qe, qde, values, geo)
             frame = self.frame_accelerations(pose)
             if acceleration is not None:
                 a = np.asarray(acceleration, dtype=float).reshape(N, 2)
@@ -336,8 +398,8 @@ class SuspensionModule:
             out = np.concatenate([np.stack([qdd[:, s.ind[0]], on_frame[:, 1], M_P,
                                             on_frame[:, 0]], -1),
                                   R[:, :self.n_joints, 0, :2].reshape(q.shape[0], -1)], -1)
-            sp = s.spring(self.spring_name, state.q, state.qd, params)
-            F_S = -sp.force * sp.direction[:, 1 - self.chassis_end, 1]
+            F_S = (-self._spring_force(qe, qde, values, parts)
+                   * self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1])
         finally:
             self.time_s += time.perf_counter() - t0
         return out.reshape(blocks, N, -1).transpose(1, 0, 2), F_S
@@ -346,5 +408,8 @@ class SuspensionModule:
                             pose: tuple[np.ndarray, ...] | None = None) -> float:
         """Largest position-constraint violation ``max |C(q)|`` over the states [m]
         (chassis mount: at the mount ``pose`` the states were analysed at)."""
+        last = self._last_residual
+        if last is not None and state.q is last[0] and pose is last[1]:
+            return last[2]  # the last kinematics' Newton iteration has it
         motion = None if pose is None else self.mount_motion(pose)
         return float(np.max(np.abs(self.solver.constraints(state.q, motion)), initial=0.0))

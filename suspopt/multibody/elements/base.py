@@ -28,9 +28,12 @@ from suspopt.multibody.reading import GROUND
 COORDINATES = ('x', 'z', 'phi')
 
 
-def rot_apply(phi: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``A(φ) u = cos φ u + sin φ perp(u)`` with broadcasting; ``u`` has a trailing axis of 2."""
-    return np.cos(phi)[..., None] * u + np.sin(phi)[..., None] * (u[..., ::-1] * _FLIP)
+def rot_apply(phi: np.ndarray, u: np.ndarray, u_perp: np.ndarray | None = None) -> np.ndarray:
+    """``A(φ) u = cos φ u + sin φ perp(u)`` with broadcasting; ``u`` has a trailing axis of 2
+    (``u_perp``: ``perp(u)``, if the caller has it)."""
+    if u_perp is None:
+        u_perp = u[..., ::-1] * _FLIP
+    return np.cos(phi)[..., None] * u + np.sin(phi)[..., None] * u_perp
 
 
 _FLIP = np.array([-1.0, 1.0])
@@ -71,53 +74,117 @@ class Layout:
         return self.q0e[bodies, 2]
 
 
+def flat_index(bodies: np.ndarray, coordinates=(0, 1, 2)) -> np.ndarray:
+    """Where ``coordinates`` (0: x, 1: z, 2: φ) of ``bodies`` (…) are in a state's ``qe``
+    flattened: (…, len(coordinates))."""
+    return 3 * np.asarray(bodies, dtype=int)[..., None] + np.asarray(coordinates, dtype=int)
+
+
+def gather(qe: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``qe`` (N, nb + 1, 3) flattened per state, at ``index`` (any shape; see
+    :func:`flat_index`): (N, *index.shape) in one call."""
+    return qe.reshape(qe.shape[0], -1).take(index, axis=1)
+
+
+class BodyPoints:
+    """Points fixed in bodies: ``bodies`` (ne, S) and the points ``u`` (ne, S, 2) in body
+    axes, with the index arrays that gather their bodies' coordinates from ``qe`` at once."""
+
+    def __init__(self, bodies: np.ndarray, u: np.ndarray):
+        self.bodies = np.asarray(bodies, dtype=int)
+        self.u = np.asarray(u, dtype=float)
+        self.u_perp = perp(self.u)
+        self.phi = 3 * self.bodies + 2            # (ne, S)
+        self.coords = flat_index(self.bodies)     # (ne, S, 3)
+
+    def arms(self, qe: np.ndarray) -> np.ndarray:
+        """``A(φ) u`` (N, ne, S, 2)."""
+        return rot_apply(gather(qe, self.phi), self.u, self.u_perp)
+
+    def state(self, qe: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The bodies' coordinates (N, ne, S, 3), ``cos φ`` and ``sin φ`` (N, ne, S) and the
+        arms ``A(φ) u`` (N, ne, S, 2)."""
+        qb = gather(qe, self.coords)
+        c, s = np.cos(qb[..., 2]), np.sin(qb[..., 2])
+        return qb, c, s, c[..., None] * self.u + s[..., None] * self.u_perp
+
+
+#: ``coincidence_jacobian``: ∂/∂r of both bodies (+I, -I) and the sign of each ∂/∂φ entry
+_PM_I = np.array([np.eye(2), -np.eye(2)])
+_ARM_SIGN = np.array([[-1.0, 1.0], [1.0, -1.0]])
+
+
 def coincidence_jacobian(arm: np.ndarray, n_equations: int = 2) -> np.ndarray:
     """Jacobian blocks of ``r_i + A_i u_i - r_j - A_j u_j`` (the first two equations) for
     arms ``A u`` of both bodies (N, ne, 2, 2): (N, ne, 2, n_equations, 3), with
     ``∂/∂r = ±I`` and ``∂/∂φ = ±B u = ±perp(A u)``; further equations' rows are zero."""
     N, ne = arm.shape[:2]
     J = np.zeros((N, ne, 2, n_equations, 3))
-    J[:, :, 0, 0, 0] = J[:, :, 0, 1, 1] = 1.0
-    J[:, :, 1, 0, 0] = J[:, :, 1, 1, 1] = -1.0
-    J[:, :, 0, 0, 2] = -arm[:, :, 0, 1]
-    J[:, :, 0, 1, 2] = arm[:, :, 0, 0]
-    J[:, :, 1, 0, 2] = arm[:, :, 1, 1]
-    J[:, :, 1, 1, 2] = -arm[:, :, 1, 0]
+    J[:, :, :, :2, :2] = _PM_I
+    J[:, :, :, :2, 2] = arm[..., ::-1] * _ARM_SIGN
     return J
+
+
+class AxisProjection:
+    """``ℓ = (A(φ_a) ā)ᵀ (p_b - p_a)``: the distance along a unit axis ``ā`` fixed in body
+    a (body axes, (ne, 2)) from point ``u_a`` on a to point ``u_b`` on b, for elements on
+    ``bodies`` (ne, 2) = (a, b) with points ``u`` (ne, 2, 2). Its gradient:
+
+        ∂ℓ/∂r_a = -nᵀ,  ∂ℓ/∂φ_a = (B n̄)ᵀ (p_b - r_a),  ∂ℓ/∂r_b = nᵀ,  ∂ℓ/∂φ_b = nᵀ B_b u_b
+    """
+
+    def __init__(self, bodies: np.ndarray, u: np.ndarray, axis: np.ndarray):
+        self.points = BodyPoints(bodies, u)
+        self.axis = np.asarray(axis, dtype=float)
+        self.axis_perp = perp(self.axis)
+
+    def geometry(self, qe: np.ndarray):
+        """Coordinates of both bodies (N, ne, 2, 3), arms and points of both ends
+        (N, ne, 2, 2) and the axis ``n = A(φ_a) ā`` (N, ne, 2)."""
+        qb, c, s, arm = self.points.state(qe)
+        n = c[:, :, 0, None] * self.axis + s[:, :, 0, None] * self.axis_perp
+        return qb, arm, qb[..., :2] + arm, n
+
+    def normal(self, qe: np.ndarray) -> np.ndarray:
+        """``n = A(φ_a) ā`` (N, ne, 2)."""
+        return rot_apply(gather(qe, self.points.phi[:, 0]), self.axis, self.axis_perp)
+
+    def measure(self, qe: np.ndarray, geometry=None) -> tuple[np.ndarray, np.ndarray]:
+        """``ℓ`` (N, ne) and ``∂ℓ/∂q`` of a and b (N, ne, 2, 3) (``geometry``:
+        :meth:`geometry` at ``qe``, if the caller has it)."""
+        qb, arm, p, n = self.geometry(qe) if geometry is None else geometry
+        G = np.empty(arm.shape[:2] + (2, 3))
+        G[:, :, 0, :2] = -n
+        G[:, :, 0, 2] = cross(n, p[:, :, 1] - qb[:, :, 0, :2])  # (B n̄)ᵀ (p_b - r_a)
+        G[:, :, 1, :2] = n
+        G[:, :, 1, 2] = cross(arm[:, :, 1], n)                 # nᵀ perp(A_b u_b)
+        return dot(n, p[:, :, 1] - p[:, :, 0]), G
+
+    def quadratic(self, qe: np.ndarray, qde: np.ndarray, geometry=None) -> np.ndarray:
+        """``(ℓ_q q̇)_q q̇`` (so ``ℓ̈ = ℓ_q q̈ +`` this), (N, ne):
+        ``-nᵀd ω_a² + 2 ω_a (B n)ᵀ ḋ - nᵀ(A_b u_b ω_b² - A_a u_a ω_a²)``, ``d = p_b - p_a``."""
+        qb, arm, p, n = self.geometry(qe) if geometry is None else geometry
+        vb = gather(qde, self.points.coords)
+        w = vb[..., 2]
+        v = vb[..., :2] + perp(arm) * w[..., None]
+        wa, wb = w[:, :, 0], w[:, :, 1]
+        return (-dot(n, p[:, :, 1] - p[:, :, 0]) * wa**2
+                + 2.0 * wa * dot(perp(n), v[:, :, 1] - v[:, :, 0])
+                - dot(n, arm[:, :, 1]) * wb**2 + dot(n, arm[:, :, 0]) * wa**2)
 
 
 def axis_projection(qe: np.ndarray, bodies: np.ndarray, u: np.ndarray,
                     axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``ℓ = (A(φ_a) ā)ᵀ (p_b - p_a)``: the distance along a unit axis ``ā`` fixed in body
-    a (body axes, (ne, 2)) from point ``u_a`` on a to point ``u_b`` on b (``u`` (ne, 2, 2)).
-    Returns ``ℓ`` (N, ne) and ``∂ℓ/∂q`` of a and b (N, ne, 2, 3):
-
-        ∂ℓ/∂r_a = -nᵀ,  ∂ℓ/∂φ_a = (B n̄)ᵀ (p_b - r_a),  ∂ℓ/∂r_b = nᵀ,  ∂ℓ/∂φ_b = nᵀ B_b u_b
-    """
-    arm = rot_apply(qe[:, bodies, 2], u)
-    p = qe[:, bodies, :2] + arm
-    n = rot_apply(qe[:, bodies[:, 0], 2], axis)
-    G = np.empty(arm.shape[:2] + (2, 3))
-    G[:, :, 0, :2] = -n
-    G[:, :, 0, 2] = dot(perp(n), p[:, :, 1] - qe[:, bodies[:, 0], :2])
-    G[:, :, 1, :2] = n
-    G[:, :, 1, 2] = dot(n, perp(arm[:, :, 1]))
-    return dot(n, p[:, :, 1] - p[:, :, 0]), G
+    """:meth:`AxisProjection.measure` of the elements on ``bodies`` (ne, 2) with points
+    ``u`` (ne, 2, 2) and axis ``axis`` (ne, 2) in body a's axes: ``ℓ`` (N, ne) and
+    ``∂ℓ/∂q`` of a and b (N, ne, 2, 3)."""
+    return AxisProjection(bodies, u, axis).measure(qe)
 
 
 def axis_projection_quadratic(qe: np.ndarray, qde: np.ndarray, bodies: np.ndarray,
                               u: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """``(ℓ_q q̇)_q q̇`` of :func:`axis_projection` (so ``ℓ̈ = ℓ_q q̈ +`` this), (N, ne):
-    ``-nᵀd ω_a² + 2 ω_a (B n)ᵀ ḋ - nᵀ(A_b u_b ω_b² - A_a u_a ω_a²)``, ``d = p_b - p_a``."""
-    arm = rot_apply(qe[:, bodies, 2], u)
-    p = qe[:, bodies, :2] + arm
-    n = rot_apply(qe[:, bodies[:, 0], 2], axis)
-    w = qde[:, bodies, 2]
-    v = qde[:, bodies, :2] + perp(arm) * w[..., None]
-    wa, wb = w[:, :, 0], w[:, :, 1]
-    return (-dot(n, p[:, :, 1] - p[:, :, 0]) * wa**2
-            + 2.0 * wa * dot(perp(n), v[:, :, 1] - v[:, :, 0])
-            - dot(n, arm[:, :, 1]) * wb**2 + dot(n, arm[:, :, 0]) * wa**2)
+    """:meth:`AxisProjection.quadratic` of the elements (see :func:`axis_projection`)."""
+    return AxisProjection(bodies, u, axis).quadratic(qe, qde)
 
 
 class JointGroup:
@@ -170,6 +237,173 @@ class JointGroup:
         return -np.einsum('neskc,nek->nesc', self.jacobian(qe), lam)
 
 
+class CoincidenceJointGroup(JointGroup):
+    """Joints that make a point on each of two bodies coincide, ``r_i + A_i u_i`` with
+    ``r_j + A_j u_j`` (x and z), and with ``angle_equation`` also hold their relative angle
+    ``φ_i - φ_j`` at its reference value (a weld). The equations, in this order of
+    operations (the solver evaluates all such joints of a mechanism at once by them):
+
+        C_c = ((r_ic + a_ic) - r_jc) - a_jc,    C_φ = (φ_i - φ_j) - (φ_i0 - φ_j0)
+
+    with the arms ``a = A u``; ``C_q = [ I  B_i u_i  -I  -B_j u_j ]`` (and ``±1`` on the
+    angles), ``γ = a_i φ̇_i² - a_j φ̇_j²`` (0 for the angle). A type gives its joint
+    points ``u`` (ne, 2, 2) in body axes (:meth:`joint_points`)."""
+
+    #: a weld: the relative angle is held too (a third equation)
+    angle_equation: ClassVar[bool] = False
+
+    def __init__(self, specs: list[Any], layout: Layout):
+        super().__init__(specs, layout)
+        self.u = np.asarray(self.joint_points(specs, layout), dtype=float).reshape(-1, 2, 2)
+        self.points = BodyPoints(self.bodies, self.u)
+        ang = layout.angle0(self.bodies)
+        self.angle = (ang[:, 0] - ang[:, 1]).reshape(-1)
+
+    def joint_points(self, specs: list[Any], layout: Layout) -> np.ndarray:
+        """The joint point in both bodies' axes (ne, 2, 2)."""
+        raise NotImplementedError
+
+    def arms(self, qe: np.ndarray) -> np.ndarray:
+        return self.points.arms(qe)  # (N, ne, 2, 2)
+
+    def _residual(self, qb, arm):
+        C = qb[:, :, 0, :2] + arm[:, :, 0] - qb[:, :, 1, :2] - arm[:, :, 1]
+        if not self.angle_equation:
+            return C
+        out = np.empty(C.shape[:2] + (3,))
+        out[..., :2] = C
+        out[..., 2] = qb[:, :, 0, 2] - qb[:, :, 1, 2] - self.angle
+        return out
+
+    def _jacobian(self, arm):
+        J = coincidence_jacobian(arm, self.n_equations)
+        if self.angle_equation:
+            J[:, :, 0, 2, 2] = 1.0
+            J[:, :, 1, 2, 2] = -1.0
+        return J
+
+    def residual(self, qe, drive=None):
+        qb, _, _, arm = self.points.state(qe)
+        return self._residual(qb, arm)
+
+    def jacobian(self, qe):
+        return self._jacobian(self.arms(qe))
+
+    def residual_jacobian(self, qe, drive=None):
+        qb, _, _, arm = self.points.state(qe)
+        return self._residual(qb, arm), self._jacobian(arm)
+
+    def gamma(self, qe, qde, drive=None):
+        g = self.arms(qe) * gather(qde, self.points.phi)[..., None] ** 2
+        if not self.angle_equation:
+            return g[:, :, 0] - g[:, :, 1]
+        out = np.zeros(g.shape[:2] + (3,))
+        out[..., :2] = g[:, :, 0] - g[:, :, 1]
+        return out
+
+
+class CoincidenceSet:
+    """All :class:`CoincidenceJointGroup` joints of a mechanism evaluated at once, by the
+    same operations in the same order as their groups' methods (the same results bit for
+    bit), with a few NumPy calls per batch whatever the number of joints.
+
+    Per state, a pool holds the bodies' coordinates (the ground's zero), the arms ``A u``
+    of every joint point and their negatives, the weld angles and the constants
+    ``-0, 0, 1, -1``; each equation is ``((v_1 + v_2) - v_3) - v_4`` of four pool
+    entries, ``C_q`` (m, n) is pool entries (``±1``, ``±`` arm components and zeros; the
+    rows of other joints zero) and each ``γ`` the difference of two ``a φ̇²`` entries.
+    ``rows``: the constraint row of each group's equations (ne, k)."""
+
+    def __init__(self, groups: list[CoincidenceJointGroup], rows: list[np.ndarray], nb: int,
+                 m: int):
+        ncoord = 3 * (nb + 1)
+        n = 3 * nb
+        bodies = np.concatenate([g.bodies.ravel() for g in groups])      # (P,) per point
+        u = np.concatenate([g.u.reshape(-1, 2) for g in groups])
+        self.n_points = P = bodies.size
+        self.phi = np.repeat(3 * bodies + 2, 2)  # per arm component
+        self.u, self.u_perp = u.ravel(), perp(u).ravel()
+        self.arms = slice(ncoord, ncoord + 2 * P)
+        self.negative_arms = slice(ncoord + 2 * P, ncoord + 4 * P)
+        angles = [a for g in groups if g.angle_equation for a in g.angle]
+        start = ncoord + 4 * P
+        ANGLE, NEGZERO, ZERO, ONE, MINUS = (start, start + len(angles), start + len(angles) + 1,
+                                            start + len(angles) + 2, start + len(angles) + 3)
+        self.width = start + len(angles) + 4
+        self.template = np.zeros(self.width)
+        self.template[ANGLE:NEGZERO] = angles
+        self.template[NEGZERO:] = (-0.0, 0.0, 1.0, -1.0)  # v + (-0.0) == v
+        eq, gam = [], []
+        cq = np.full(m * n, ZERO)  # C_q from the pool
+
+        def put(r, b, c, src):
+            if b < nb:
+                cq[r * n + 3 * b + c] = src
+        first = angle = 0
+        for g, r in zip(groups, rows):
+            for e in range(len(g.names)):
+                bi, bj = g.bodies[e]
+                pi, pj = first, first + 1                           # points of both slots
+                first += 2
+                ai, aj = ncoord + 2 * pi, ncoord + 2 * pj            # their arms (x, z)
+                for k in range(2):
+                    eq.append((r[e, k], (3 * bi + k, ai + k, 3 * bj + k, aj + k)))
+                    gam.append((r[e, k], (2 * pi + k, 2 * pj + k)))
+                    put(r[e, k], bi, k, ONE)
+                    put(r[e, k], bj, k, MINUS)
+                # ∂C_x/∂φ = -a_z (i), +a_z (j); ∂C_z/∂φ = +a_x (i), -a_x (j)
+                put(r[e, 0], bi, 2, ai + 1 + 2 * P)
+                put(r[e, 0], bj, 2, aj + 1)
+                put(r[e, 1], bi, 2, ai)
+                put(r[e, 1], bj, 2, aj + 2 * P)
+                if g.angle_equation:
+                    eq.append((r[e, 2], (3 * bi + 2, NEGZERO, 3 * bj + 2, ANGLE + angle)))
+                    gam.append((r[e, 2], (2 * P, 2 * P)))
+                    put(r[e, 2], bi, 2, ONE)
+                    put(r[e, 2], bj, 2, MINUS)
+                    angle += 1
+        order = np.argsort([row for row, _ in eq], kind='stable')
+        self.rows = np.array([eq[o][0] for o in order], dtype=int)
+        self.terms = np.array([eq[o][1] for o in order], dtype=int).T
+        # γ: entries of [a φ̇² of every point (2P), 0]
+        self.gamma_terms = np.array([gam[o][1] for o in order], dtype=int).T
+        self.jacobian_source = cq
+        self._ncoord = ncoord
+
+    def pool(self, q: np.ndarray) -> np.ndarray:
+        """The pool (N, width) at body coordinates ``q`` (N, n) (the ground's may follow)."""
+        N = q.shape[0]
+        v = np.empty((N, self.width))
+        v[...] = self.template
+        v[:, :q.shape[1]] = q
+        phi = v.take(self.phi, axis=1)
+        arm = v[:, self.arms]
+        np.multiply(np.cos(phi), self.u, out=arm)        # A u = cos φ u + sin φ perp(u)
+        arm += np.sin(phi) * self.u_perp
+        np.negative(arm, out=v[:, self.negative_arms])
+        return v
+
+    def residual(self, v: np.ndarray) -> np.ndarray:
+        """The equations (N, len(rows)) from the pool."""
+        t = v.take(self.terms, axis=1)
+        return ((t[:, 0] + t[:, 1]) - t[:, 2]) - t[:, 3]
+
+    def jacobian(self, v: np.ndarray) -> np.ndarray:
+        """``C_q`` (N, m · n) flattened from the pool: these joints' rows, zeros elsewhere."""
+        return v.take(self.jacobian_source, axis=1)
+
+    def gamma(self, v: np.ndarray, qde: np.ndarray) -> np.ndarray:
+        """``γ`` of the equations (N, len(rows)), from the pool at q and the velocities
+        ``qde`` (N, nb + 1, 3)."""
+        N = v.shape[0]
+        w = qde.reshape(N, -1).take(self.phi, axis=1)
+        g = np.empty((N, 2 * self.n_points + 1))
+        np.multiply(v[:, self.arms], w ** 2, out=g[:, :-1])
+        g[:, -1] = 0.0
+        t = g.take(self.gamma_terms, axis=1)
+        return t[:, 0] - t[:, 1]
+
+
 class ForceGroup:
     """All force elements of one type in a mechanism (subclasses: one per force type)."""
 
@@ -187,6 +421,13 @@ class ForceGroup:
                           values: dict[str, np.ndarray]) -> np.ndarray:
         """Generalized force on each connected body (``self.bodies``), (N, ne, S, 3)."""
         raise NotImplementedError
+
+    def forces(self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray],
+               geometry: Any = None) -> tuple[np.ndarray, Any]:
+        """:meth:`generalized_force` and what the type computed on the way that a query
+        may reuse (a spring's :meth:`ScalarSpringGroup.tension`; None here); ``geometry``:
+        a spring's :meth:`ScalarSpringGroup.geometry` at ``qe``, if the caller has it."""
+        return self.generalized_force(qe, qde, values), None
 
     def potential(self, qe: np.ndarray, values: dict[str, np.ndarray]) -> np.ndarray:
         """Potential energy per element (N, ne); zero for non-conservative forces."""
@@ -207,6 +448,7 @@ class ScalarSpringGroup(ForceGroup):
         ends = [[layout.markers[m] for m in s.markers] for s in specs]
         self.bodies = np.array([[e[0] for e in pair] for pair in ends], dtype=int).reshape(-1, 2)
         self.u = np.array([[e[1] for e in pair] for pair in ends], dtype=float).reshape(-1, 2, 2)
+        self.points = BodyPoints(self.bodies, self.u)
         self.setup(specs, layout)
         ref = self.length(layout.q0e[None])[0]
         self.free_length = np.array([ref[i] if s.free_length is None else s.free_length
@@ -217,21 +459,27 @@ class ScalarSpringGroup(ForceGroup):
 
     def ends(self, qe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Arms ``A u`` (N, ne, 2, 2) and global positions (N, ne, 2, 2) of both ends."""
-        arm = rot_apply(qe[:, self.bodies, 2], self.u)
-        return arm, qe[:, self.bodies, :2] + arm
+        qb, _, _, arm = self.points.state(qe)
+        return arm, qb[..., :2] + arm
 
     def length(self, qe: np.ndarray) -> np.ndarray:
         return self.measure(qe)[0]
 
-    def measure(self, qe: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def geometry(self, qe: np.ndarray) -> Any:
+        """What :meth:`measure`, :meth:`quadratic` and :meth:`directions` share at ``qe``,
+        for a caller that needs several of them at one pose (they take it as
+        ``geometry``); None if nothing."""
+        return None
+
+    def measure(self, qe: np.ndarray, geometry: Any = None) -> tuple[np.ndarray, np.ndarray]:
         """``ℓ`` (N, ne) and ``∂ℓ/∂q_b`` of both end bodies (N, ne, 2, 3)."""
         raise NotImplementedError
 
-    def quadratic(self, qe: np.ndarray, qde: np.ndarray) -> np.ndarray:
+    def quadratic(self, qe: np.ndarray, qde: np.ndarray, geometry: Any = None) -> np.ndarray:
         """``(ℓ_q q̇)_q q̇`` (N, ne)."""
         raise NotImplementedError
 
-    def directions(self, qe: np.ndarray) -> np.ndarray:
+    def directions(self, qe: np.ndarray, geometry: Any = None) -> np.ndarray:
         """Unit line of action at each end, pointing to the other end (N, ne, 2, 2): a
         positive tension pulls end e along ``directions[..., e, :]``."""
         raise NotImplementedError
@@ -239,10 +487,10 @@ class ScalarSpringGroup(ForceGroup):
     def rate(self, grad: np.ndarray, qde: np.ndarray) -> np.ndarray:
         return np.einsum('nesc,nesc->ne', grad, qde[:, self.bodies])
 
-    def tension(self, qe: np.ndarray, qde: np.ndarray | None,
-                values: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
+    def tension(self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray],
+                geometry: Any = None) -> tuple[np.ndarray, ...]:
         """``ℓ``, ``ℓ̇``, ``f`` (N, ne each) and the gradient (N, ne, 2, 3)."""
-        ell, grad = self.measure(qe)
+        ell, grad = self.measure(qe, geometry)
         f = values['stiffness'] * (ell - self.free_length) + values['preload']
         if qde is None:
             if np.any(values['damping'] != 0.0):
@@ -257,6 +505,12 @@ class ScalarSpringGroup(ForceGroup):
     def generalized_force(self, qe, qde, values):
         _, _, f, grad = self.tension(qe, qde, values)
         return -f[..., None, None] * grad
+
+    def forces(self, qe, qde, values, geometry=None):
+        if type(self).generalized_force is not ScalarSpringGroup.generalized_force:
+            return self.generalized_force(qe, qde, values), None
+        t = self.tension(qe, qde, values, geometry)
+        return -t[2][..., None, None] * t[3], t
 
     def potential(self, qe, values):
         s = self.length(qe) - self.free_length
@@ -290,6 +544,7 @@ def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
                                                                positive=True)}
 
 
-__all__ = ['COORDINATES', 'GROUND', 'ForceGroup', 'JointGroup', 'Layout', 'ScalarSpringGroup',
+__all__ = ['COORDINATES', 'GROUND', 'AxisProjection', 'BodyPoints', 'CoincidenceJointGroup',
+           'CoincidenceSet', 'ForceGroup', 'JointGroup', 'Layout', 'ScalarSpringGroup',
            'axis_projection', 'axis_projection_quadratic', 'coincidence_jacobian', 'cross',
-           'dot', 'perp', 'rot_apply']
+           'dot', 'flat_index', 'gather', 'perp', 'rot_apply']

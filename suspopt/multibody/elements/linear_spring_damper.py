@@ -20,9 +20,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import (ScalarSpringGroup, axis_projection,
-                                             axis_projection_quadratic, read_spring_common,
-                                             rot_apply, spring_spec_keys)
+from suspopt.multibody.elements.base import (AxisProjection, ScalarSpringGroup,
+                                             read_spring_common, rot_apply, spring_spec_keys)
 
 
 @dataclass(frozen=True)
@@ -60,16 +59,23 @@ class LinearSpringDamperGroup(ScalarSpringGroup):
     def setup(self, specs, layout):
         axis = np.array([s.axis for s in specs], dtype=float).reshape(-1, 2)
         self.axis = rot_apply(-layout.angle0(self.bodies[:, 0]), axis)  # in body 0's axes
+        self.projection = AxisProjection(self.bodies, self.u, self.axis)
 
-    def measure(self, qe):
-        return axis_projection(qe, self.bodies, self.u, self.axis)
+    def geometry(self, qe):
+        return self.projection.geometry(qe)
 
-    def quadratic(self, qe, qde):
-        return axis_projection_quadratic(qe, qde, self.bodies, self.u, self.axis)
+    def measure(self, qe, geometry=None):
+        return self.projection.measure(qe, geometry)
 
-    def directions(self, qe):
-        n = rot_apply(qe[:, self.bodies[:, 0], 2], self.axis)
-        return np.stack([n, -n], 2)
+    def quadratic(self, qe, qde, geometry=None):
+        return self.projection.quadratic(qe, qde, geometry)
+
+    def directions(self, qe, geometry=None):
+        n = self.projection.normal(qe) if geometry is None else geometry[3]
+        out = np.empty(n.shape[:2] + (2, 2))
+        out[:, :, 0] = n
+        np.negative(n, out=out[:, :, 1])
+        return out
 
 
 LinearSpringDamper.group = LinearSpringDamperGroup

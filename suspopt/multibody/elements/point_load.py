@@ -11,7 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import ForceGroup, cross, rot_apply
+from suspopt.multibody.elements.base import BodyPoints, ForceGroup, cross
 
 
 @dataclass(frozen=True)
@@ -45,10 +45,11 @@ class PointLoadGroup(ForceGroup):
         self.bodies = np.array([layout.markers[s.marker][0] for s in specs], dtype=int)[:, None]
         self.u = np.array([layout.markers[s.marker][1] for s in specs], dtype=float).reshape(-1, 2)
         self.direction = np.array([s.direction for s in specs], dtype=float).reshape(-1, 2)
+        self.points = BodyPoints(self.bodies[:, 0], self.u)
 
     def generalized_force(self, qe, qde, values):
         F = values['magnitude'][..., None] * self.direction  # (N, ne, 2)
-        arm = rot_apply(qe[:, self.bodies[:, 0], 2], self.u)
+        arm = self.points.arms(qe)
         Q = np.empty(F.shape[:2] + (1, 3))
         Q[:, :, 0, :2] = F
         Q[:, :, 0, 2] = cross(arm, F)

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from suspopt.multibody.elements.base import JointGroup
+from suspopt.multibody.elements.base import JointGroup, flat_index, gather
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,9 @@ class PrescribedMotion:
     acceleration: ArrayLike = 0.0
 
 
+_EYE = np.eye(3)
+
+
 class PrescribedGroup(JointGroup):
     n_equations = 3
     n_bodies = 1
@@ -57,14 +60,15 @@ class PrescribedGroup(JointGroup):
     def __init__(self, specs, layout):
         super().__init__(specs, layout)
         self.q0 = layout.q0e[self.bodies[:, 0]]  # (ne, 3)
+        self._coords = flat_index(self.bodies[:, 0])
 
     def residual(self, qe, drive=None):
-        C = qe[:, self.bodies[:, 0]] - self.q0
+        C = gather(qe, self._coords) - self.q0
         return C if drive is None else C - drive[0]
 
     def jacobian(self, qe):
         J = np.zeros((qe.shape[0], len(self.names), 1, 3, 3))
-        J[:, :, 0] = np.eye(3)
+        J[:, :, 0] = _EYE
         return J
 
     def gamma(self, qe, qde, drive=None):

@@ -18,8 +18,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import (JointGroup, axis_projection,
-                                             axis_projection_quadratic, perp, rot_apply)
+from suspopt.multibody.elements.base import AxisProjection, JointGroup, gather, perp, rot_apply
 
 
 @dataclass(frozen=True)
@@ -53,15 +52,17 @@ class PrismaticGroup(JointGroup):
         axis = np.array([s.axis for s in specs], dtype=float).reshape(-1, 2)
         self.normal = perp(rot_apply(-ang[:, 0], axis))  # in body a's axes
         self.angle = ang[:, 1] - ang[:, 0]
+        self.projection = AxisProjection(self.bodies, self.u, self.normal)
 
     def residual(self, qe, drive=None):
         C = np.empty((qe.shape[0], len(self.names), 2))
-        C[..., 0] = axis_projection(qe, self.bodies, self.u, self.normal)[0]
-        C[..., 1] = qe[:, self.bodies[:, 1], 2] - qe[:, self.bodies[:, 0], 2] - self.angle
+        C[..., 0] = self.projection.measure(qe)[0]
+        phi = gather(qe, self.projection.points.phi)
+        C[..., 1] = phi[:, :, 1] - phi[:, :, 0] - self.angle
         return C
 
     def jacobian(self, qe):
-        G = axis_projection(qe, self.bodies, self.u, self.normal)[1]
+        G = self.projection.measure(qe)[1]
         J = np.zeros(G.shape[:3] + (2, 3))
         J[:, :, :, 0] = G
         J[:, :, 0, 1, 2] = -1.0
@@ -70,7 +71,7 @@ class PrismaticGroup(JointGroup):
 
     def gamma(self, qe, qde, drive=None):
         g = np.zeros((qe.shape[0], len(self.names), 2))
-        g[..., 0] = -axis_projection_quadratic(qe, qde, self.bodies, self.u, self.normal)
+        g[..., 0] = -self.projection.quadratic(qe, qde)
         return g
 
 

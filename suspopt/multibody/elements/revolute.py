@@ -13,7 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import GROUND, JointGroup, coincidence_jacobian, rot_apply
+from suspopt.multibody.elements.base import GROUND, CoincidenceJointGroup
 
 
 @dataclass(frozen=True)
@@ -35,34 +35,12 @@ class RevoluteJoint:
         return cls(name=name, bodies=(a, b), point=rd.vec2(data, 'point', where))
 
 
-class RevoluteGroup(JointGroup):
+class RevoluteGroup(CoincidenceJointGroup):
     n_equations = 2
 
-    def __init__(self, specs, layout):
-        super().__init__(specs, layout)
+    def joint_points(self, specs, layout):
         pts = np.array([s.point for s in specs], dtype=float).reshape(-1, 1, 2)
-        self.u = layout.local(self.bodies, pts)  # (ne, 2, 2): joint point in both bodies
-
-    def arms(self, qe: np.ndarray) -> np.ndarray:
-        return rot_apply(qe[:, self.bodies, 2], self.u)  # (N, ne, 2, 2)
-
-    def _residual(self, qe, arm):
-        pos = qe[:, self.bodies, :2]
-        return pos[:, :, 0] + arm[:, :, 0] - pos[:, :, 1] - arm[:, :, 1]
-
-    def residual(self, qe, drive=None):
-        return self._residual(qe, self.arms(qe))
-
-    def jacobian(self, qe):
-        return coincidence_jacobian(self.arms(qe))
-
-    def residual_jacobian(self, qe, drive=None):
-        arm = self.arms(qe)
-        return self._residual(qe, arm), coincidence_jacobian(arm)
-
-    def gamma(self, qe, qde, drive=None):
-        g = self.arms(qe) * qde[:, self.bodies, 2, None] ** 2
-        return g[:, :, 0] - g[:, :, 1]
+        return layout.local(self.bodies, pts)  # (ne, 2, 2): joint point in both bodies
 
 
 RevoluteJoint.group = RevoluteGroup

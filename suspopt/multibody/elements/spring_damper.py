@@ -15,8 +15,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import (ScalarSpringGroup, dot, perp, read_spring_common,
-                                             spring_spec_keys)
+from suspopt.multibody.elements.base import (ScalarSpringGroup, cross, dot, gather, perp,
+                                             read_spring_common, spring_spec_keys)
 
 
 @dataclass(frozen=True)
@@ -52,27 +52,34 @@ class SpringDamperGroup(ScalarSpringGroup):
         L = np.sqrt(dot(d, d))
         return arm, d, L, d / L[..., None]
 
-    def measure(self, qe):
-        arm, d, L, e = self._geometry(qe)
+    def geometry(self, qe):
+        return self._geometry(qe)
+
+    def measure(self, qe, geometry=None):
+        arm, d, L, e = self._geometry(qe) if geometry is None else geometry
         G = np.empty(L.shape + (2, 3))
         G[:, :, 0, :2] = -e
-        G[:, :, 0, 2] = -dot(e, perp(arm[:, :, 0]))
+        G[:, :, 0, 2] = -cross(arm[:, :, 0], e)   # -eᵀ perp(A_0 u_0)
         G[:, :, 1, :2] = e
-        G[:, :, 1, 2] = dot(e, perp(arm[:, :, 1]))
+        G[:, :, 1, 2] = cross(arm[:, :, 1], e)    # eᵀ perp(A_1 u_1)
         return L, G
 
-    def quadratic(self, qe, qde):
-        arm, d, L, e = self._geometry(qe)
-        w = qde[:, self.bodies, 2]
-        v = qde[:, self.bodies, :2] + perp(arm) * w[..., None]
+    def quadratic(self, qe, qde, geometry=None):
+        arm, d, L, e = self._geometry(qe) if geometry is None else geometry
+        vb = gather(qde, self.points.coords)
+        w = vb[..., 2]
+        v = vb[..., :2] + perp(arm) * w[..., None]
         dd = v[:, :, 1] - v[:, :, 0]
         centripetal = (arm[:, :, 0] * w[:, :, 0, None] ** 2
                        - arm[:, :, 1] * w[:, :, 1, None] ** 2)
         return dot(e, centripetal) + (dot(dd, dd) - dot(e, dd) ** 2) / L
 
-    def directions(self, qe):
-        e = self._geometry(qe)[3]
-        return np.stack([e, -e], 2)
+    def directions(self, qe, geometry=None):
+        e = (self._geometry(qe) if geometry is None else geometry)[3]
+        out = np.empty(e.shape[:2] + (2, 2))
+        out[:, :, 0] = e
+        np.negative(e, out=out[:, :, 1])
+        return out
 
 
 SpringDamper.group = SpringDamperGroup

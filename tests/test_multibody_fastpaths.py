@@ -1,0 +1,100 @@
+"""The multibody module's fast paths give, bit for bit, what the solver's general methods
+give: the position analysis' C_q, max |C| and the coincidence joints' pool taken from its
+last Newton iteration; a small batch iterated as a whole (converged states held by a zero
+step) and a large one by subsets; SuspensionModule.dynamics from shared geometry and the
+pool; constraint_residual from the last kinematics; joint_reactions from one matrix."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from suspopt.multibody import solver as solver_mod
+from suspopt.multibody.suspension import SuspensionModule
+
+MECHANISMS = ['double_wishbone', 'macpherson', 'sla_double_wishbone']
+
+
+def travels(N, seed=0):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-0.06, 0.06, N), rng.uniform(-1.0, 1.0, N)
+
+
+def same(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape
+    assert np.array_equal(a, b, equal_nan=True), np.max(np.abs(a - b))
+
+
+@pytest.mark.parametrize('mechanism', MECHANISMS)
+@pytest.mark.parametrize('N', [1, 3, solver_mod.SMALL_BATCH + 4])
+def test_analysed_positions_are_the_general_analyses(mechanism, N):
+    s = SuspensionModule(mechanism).solver
+    z, _ = travels(N)
+    q_ind = z[:, None] + s.q0[s.ind[0]]
+    q, Cq, err, pool = s._analysed_positions(q_ind)
+    same(q, s.positions(q_ind))
+    same(Cq, s.constraint_jacobian(q))
+    same(err, np.max(np.abs(s.constraints(q)), axis=1, initial=0.0))
+    if pool is not None:
+        same(s._gamma_all(q, np.ones_like(q), [None] * len(s.joint_groups), pool=pool),
+             s.gamma(q, np.ones_like(q)))
+
+
+@pytest.mark.parametrize('mechanism', MECHANISMS)
+def test_small_batch_newton_equals_single_states_and_subsets(mechanism):
+    s = SuspensionModule(mechanism).solver
+    z, _ = travels(solver_mod.SMALL_BATCH + 4, seed=1)
+    z[2] = 0.0  # converged at the first iteration: held by a zero step in a small batch
+    q_ind = z[:, None] + s.q0[s.ind[0]]
+    large = s.positions(q_ind)                    # > SMALL_BATCH: subsets
+    small = s.positions(q_ind[:4])                # whole-batch iterations
+    single = np.concatenate([s.positions(q_ind[i:i + 1]) for i in range(4)])
+    same(small, large[:4])
+    same(single, large[:4])
+
+
+@pytest.mark.parametrize('mechanism', MECHANISMS)
+@pytest.mark.parametrize('N', [1, 4])
+def test_module_dynamics_is_the_general_route(mechanism, N):
+    mod = SuspensionModule(mechanism)
+    s = mod.solver
+    z, v = travels(N, seed=2)
+    kin = mod.kinematics(z, v)
+    rng = np.random.default_rng(3)
+    z_M, v_M = 0.2 * z, 0.3 * v
+    k_S, c_S = rng.uniform(2e4, 5e4, N), rng.uniform(1e3, 5e3, N)
+    F_T = rng.uniform(-3e3, 3e3, N)
+    qdd_ind, F_S, R = mod.dynamics(kin.state, z_M, v_M, k_S, c_S, F_T)
+
+    st = kin.state
+    loads = np.zeros((N, len(s.load_names)))
+    loads[:, mod.tyre_load] = F_T
+    params = mod.spring_params(st, z_M, v_M, k_S, c_S)
+    Q = s.generalized_forces(st.q, loads, st.qd, params)
+    qdd, lam = s.solve_augmented(st.q, st.qd, Q, Cq=s.constraint_jacobian(st.q))
+    sp = s.spring(mod.spring_name, st.q, st.qd, params)
+    same(qdd_ind, qdd[:, s.ind[0]])
+    same(st.qdd, qdd)
+    same(st.lam, lam)
+    same(F_S, -sp.force * sp.direction[:, 1 - mod.chassis_end, 1])
+    same(R, s.joint_reactions(lam, st.q))
+    same(R, s.reactions(st.q, lam)[:, :s.nj, 0, :2])
+    # the wheel marker from its body's columns
+    same(kin.q_W, s.marker_positions(st.q)[:, mod.wheel, 1] - mod.marker_ref[mod.wheel, 1])
+    same(kin.qd_W, s.marker_velocities(st.q, st.qd)[:, mod.wheel, 1])
+
+
+@pytest.mark.parametrize('mount', ['ground', 'chassis'])
+def test_constraint_residual_from_the_last_kinematics(mount):
+    mod = SuspensionModule('double_wishbone', mount=mount)
+    N = 3
+    z, v = travels(N, seed=4)
+    pose = None if mount == 'ground' else (0.01 * z, 0.1 * v, 0.5 * z, v)
+    kin = mod.kinematics(z, v, pose=pose)
+    fast = mod.constraint_residual(kin.state, kin.pose)
+    motion = None if kin.pose is None else mod.mount_motion(kin.pose)
+    slow = float(np.max(np.abs(mod.solver.constraints(kin.state.q, motion)), initial=0.0))
+    assert fast == slow
+    other = mod.kinematics(z + 0.001, v, pose=pose)  # another state: not the remembered one
+    assert other.state.q is not kin.state.q
+    assert mod.constraint_residual(kin.state, kin.pose) == slow
