@@ -60,10 +60,11 @@ def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_opti
     1. Along each design axis, the parabola through x* - h, x*, x* + h curves upwards,
        its minimum lies within h/4 (0.5 % of the range) of x*, and it predicts less than
        1e-5 relative decrease: x* is the 1-D time-marching optimum on every axis.
-    2. A poll along the 8 directions ±(four orthogonal diagonals) at the same step finds
-       no point lower than f(x*) (1 - 1e-5) (issue 4 asks for 0.1 %).
-    (Measured: minima within 0.034 h, predicted decreases <= 2e-8, diagonal polls all
-    raise f by about 1e-4.)"""
+    2. A poll along four orthogonal diagonals at the same step finds no point lower than
+       f(x*) (1 - 1e-5) (issue 4 asks for 0.1 %). One sign per diagonal suffices: with the
+       gradient shown to vanish by 1., f(x* + d) - f(x*) and f(x* - d) - f(x*) share the
+       second-order term dᵀHd/2 and differ by 2 g·d only, and a saddle shows as a
+       negative dᵀHd along some diagonal."""
     names = cfg.design_names()
     lo = np.array([cfg.design[n].lower for n in names])
     hi = np.array([cfg.design[n].upper for n in names])
@@ -87,7 +88,7 @@ def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_opti
         assert abs(offset) < 0.25, (names[j], offset)
         assert (fp - fm) ** 2 / (8.0 * curvature) < 1e-5 * f0, names[j]
     diagonals = np.array([[1, 1, 1, 1], [1, -1, 1, -1], [1, 1, -1, -1], [1, -1, -1, 1]]) / 2.0
-    for d in np.concatenate([diagonals, -diagonals]):
+    for d in diagonals:
         trial = x + d * h
         assert f(trial) > f0 * (1.0 - 1e-5), trial
 

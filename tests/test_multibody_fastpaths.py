@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from suspopt.errors import MultibodyError
 from suspopt.multibody import solver as solver_mod
 from suspopt.multibody.suspension import SuspensionModule
 
@@ -98,3 +99,19 @@ def test_constraint_residual_from_the_last_kinematics(mount):
     other = mod.kinematics(z + 0.001, v, pose=pose)  # another state: not the remembered one
     assert other.state.q is not kin.state.q
     assert mod.constraint_residual(kin.state, kin.pose) == slow
+
+
+def test_lapack_solve_equals_numpy_public_solve():
+    """``solver._lapack_solve`` (NumPy's private gufunc behind ``np.linalg.solve``, for
+    small batches) gives what the public function gives, and raises as it does on a
+    singular system; the public function is its fallback."""
+    from suspopt.multibody import solver as S
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(5, 4, 4)) + 4.0 * np.eye(4)
+    b = rng.normal(size=(5, 4, 1))
+    assert np.array_equal(S._lapack_solve(A, b), np.linalg.solve(A, b))
+    A[2] = 0.0
+    with pytest.raises(np.linalg.LinAlgError):
+        S._lapack_solve(A, b)
+    with pytest.raises(MultibodyError, match='singular test system'):
+        S._batched_solve(A, b[..., 0], 'test system')
