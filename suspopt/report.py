@@ -42,6 +42,11 @@ def _fmt(x: float | None, digits: int = 4) -> str:
     return '—' if x is None else f'{x:.{digits}g}'
 
 
+def _obj(x: float | None) -> str:
+    """An objective value (normalized: f = 1 at the reference), to four decimals."""
+    return '—' if x is None else f'{x:.4f}'
+
+
 def _design_unit(name: str) -> str:
     return {'k_S': 'N/m', 'c_S': 'N·s/m', 'k_R': 'N·m/rad'}[name[:3]]
 
@@ -89,7 +94,7 @@ def table_markdown(study: dict[str, Any]) -> str:
         if not d or not e:
             continue
         lines.append(f'| {label} | ' + ' | '.join(f'{d[n]:.0f}' for n in names)
-                     + f" | **{_fmt(e['objective'])}** | {own[name].split('/')[0]} | "
+                     + f" | **{_obj(e['objective'])}** | {own[name].split('/')[0]} | "
                      f'{_verdict(e)} |')
     lines += ['', '**Every design in both models (collocation; time marching in brackets)**',
               '', '| design | f, low-fidelity | f, mixed-fidelity |', '|---|---|---|']
@@ -98,7 +103,7 @@ def table_markdown(study: dict[str, Any]) -> str:
         for fid in ('low', 'mixed'):
             e = ev.get(f'{fid}/{name}')
             v = (e or {}).get('verification') or {}
-            cells.append('—' if e is None else _fmt(e['objective'])
+            cells.append('—' if e is None else _obj(e['objective'])
                          + (f" ({v['objective']:.4f})" if 'objective' in v else '')
                          + ('' if e.get('verified') is not False else ' **NOT verified**'))
         lines.append(f'| {label} | {cells[0]} | {cells[1]} |')
@@ -211,8 +216,8 @@ def pareto_markdown(front: dict[str, Any]) -> str:
     for pt in front['points']:
         d = pt['design']
         lines.append(f"| {pt['alpha']:.3f} | " + ' | '.join(f'{d[n]:.0f}' for n in names)
-                     + f" | {_fmt(pt.get('comfort'))} | {_fmt(pt.get('road_holding'))} | "
-                     f"{_fmt(pt['objective'])} | {pt['status']} | {pt['iterations']} | "
+                     + f" | {_obj(pt.get('comfort'))} | {_obj(pt.get('road_holding'))} | "
+                     f"{_obj(pt['objective'])} | {pt['status']} | {pt['iterations']} | "
                      f'{_verdict(pt)} |')
     init = front.get('initial')
     if init and init.get('comfort') is not None:
@@ -238,7 +243,7 @@ def robust_markdown(data: dict[str, Any]) -> str:
     for label, res in data['optima'].items():
         d = res['design']
         lines.append(f'| {label} | ' + ' | '.join(f'{d[n]:.0f}' for n in names)
-                     + f" | {_fmt(res['objective'])} | {res['status']} | {res['iterations']} "
+                     + f" | {_obj(res['objective'])} | {res['status']} | {res['iterations']} "
                      f'| {_verdict(res)} |')
     lines += ['', '**Every optimum on every scenario** (f_s by time marching; the best on each '
               'scenario in bold)', '',
