@@ -1005,7 +1005,15 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
         return client, None
     n = workers or len(os.sched_getaffinity(0))
     n = max(1, min(n, n_tasks))
-    with dask.config.set({'distributed.scheduler.allowed-failures': retries}):
+    # Two worker settings cost these (deep-stacked, allocation-heavy) tasks CPU time
+    # (benchmarks/bench_sweep.py measures it): the statistical profiler sampling the task's
+    # stack every 10 ms, and the nanny's MALLOC_TRIM_THRESHOLD_ (every large NumPy
+    # temporary mapped and unmapped afresh); both off, the BLAS single-thread settings kept.
+    environ = {k: v for k, v in dask.config.get('distributed.nanny.pre-spawn-environ').items()
+               if k != 'MALLOC_TRIM_THRESHOLD_'}
+    with dask.config.set({'distributed.scheduler.allowed-failures': retries,
+                          'distributed.worker.profile.enabled': False,
+                          'distributed.nanny.pre-spawn-environ': environ}):
         try:
             cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1,
                                    dashboard_address=None, silence_logs=logging.CRITICAL,
