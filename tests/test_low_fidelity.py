@@ -109,6 +109,7 @@ def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_opt
     u0 = 0.5 * (u_star + 0.5)
     res = minimize(f, u0, method='L-BFGS-B', bounds=[(0, 1)] * 4,
                    options={'eps': 1e-6, 'ftol': 1e-12, 'gtol': 1e-8, 'maxiter': 60})
+    print(f'\nL-BFGS-B: {res.nit} iterations, {res.nfev} evaluations, {res.message}')
     x_scipy = lo + res.x * (hi - lo)
     x_ipopt = np.array([low_optimum['design'][n] for n in names])
     np.testing.assert_allclose(x_ipopt, x_scipy, rtol=1e-2)
