@@ -55,7 +55,8 @@ def test_mixed_optimum_improves_in_the_mixed_model(cfg, scales, low_design, mixe
 
 def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_optimum):
     """Independent of collocation and of derivatives: the time-marching objective (SciPy
-    DOP853, rtol 1e-7) around the mixed-fidelity optimum x*, with h = 2 % of each range.
+    DOP853, rtol 1e-6: its noise, ~1e-6 of f, is far below the changes of ~1e-4 that the
+    checks below resolve) around the mixed-fidelity optimum x*, with h = 2 % of each range.
 
     1. Along each design axis, the parabola through x* - h, x*, x* + h curves upwards,
        its minimum lies within h/4 (0.5 % of the range) of x*, and it predicts less than
@@ -71,7 +72,7 @@ def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_opti
 
     def f(x):
         tr = simulate(cfg, 'mixed', dict(zip(names, x)), t_eval=np.array([0.0, 5.0]),
-                      rtol=1e-7, atol=1e-10)
+                      rtol=1e-6, atol=1e-9)
         return objective_value(cfg, dict(zip(cfg.terms(), tr.J)), scales[0])
 
     x = np.array([mixed_optimum['design'][n] for n in names])
