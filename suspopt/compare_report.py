@@ -115,53 +115,47 @@ def compare_markdown(data: dict[str, Any]) -> str:
                      f"{st.get('iterations')} | {'—' if solve is None else f'{solve:.2f}'} | "
                      f'{_mark(st)} |')
     best = data.get('best') or {}
-    lines += ['', '**Cross table: f of every design in every model** (collocation; time '
-              'marching in brackets; ✓ verified by time marching within '
-              f"{100 * data.get('tolerance', 5e-3):g} %, ✗ NOT verified, · not checked; "
-              'bold: the best design in that model)', '',
-              '| design \\ model | ' + ' | '.join(model_label(data, m) for m in models) + ' |',
-              '|---|' + '---|' * len(models)]
-    for d in designs:
-        cells = []
-        for m in models:
-            c = _cell(data, d, m)
-            if not c:
-                cells.append('—')
-            elif not c.get('success'):
-                cells.append(f"failed ({c.get('status')})")
-            else:
-                v = c.get('verification') or {}
-                f = f"{c['objective']:.4f}"
-                if (best.get(m) or {}).get('best') == d:
-                    f = f'**{f}**'
-                cells.append(f + (f" ({v['objective']:.4f})" if 'objective' in v else '')
-                             + f' {_mark(c)}')
-        lines.append(f'| {design_label(d)} | ' + ' | '.join(cells) + ' |')
+    def cross(d: str, m: str) -> str:
+        c = _cell(data, d, m)
+        if not c:
+            return '—'
+        if not c.get('success'):
+            return f"failed ({c.get('status')})"
+        v = c.get('verification') or {}
+        f = f"{c['objective']:.4f}"
+        if (best.get(m) or {}).get('best') == d:
+            f = f'**{f}**'
+        return (f + (f" ({v['objective']:.4f})" if 'objective' in v else '')
+                + f' {_mark(c)}')
+
+    def excess(d: str, m: str) -> str:
+        e = ((best.get(m) or {}).get('excess') or {}).get(d)
+        return '—' if e is None else f'{100 * e:+.1f} %'
+
+    def agreement(d: str, m: str) -> str:
+        v = (_cell(data, d, m) or {}).get('verification') or {}
+        if 'max_rel_diff' not in v:
+            return '—'
+        return (f"{100 * v['max_rel_diff']:.3f} % ({v['scenarios'][0]['worst_term']})"
+                + ('' if v['verified'] else ' **NOT verified**'))
+
+    def table(title: str, cell) -> list[str]:
+        """A design × model table under ``title``, one cell per (design, model)."""
+        return (['', title, '', '| design \\ model | '
+                 + ' | '.join(model_label(data, m) for m in models) + ' |',
+                 '|---|' + '---|' * len(models)]
+                + [f'| {design_label(d)} | ' + ' | '.join(cell(d, m) for m in models) + ' |'
+                   for d in designs])
+
+    lines += table('**Cross table: f of every design in every model** (collocation; time '
+                   'marching in brackets; ✓ verified by time marching within '
+                   f"{100 * data.get('tolerance', 5e-3):g} %, ✗ NOT verified, · not "
+                   'checked; bold: the best design in that model)', cross)
     if best:
-        lines += ['', "**Excess over the model's own optimum**, f / f* − 1 (what a design "
-                  'found on another model costs in this one)', '',
-                  '| design \\ model | ' + ' | '.join(model_label(data, m) for m in models)
-                  + ' |', '|---|' + '---|' * len(models)]
-        for d in designs:
-            cells = []
-            for m in models:
-                e = ((best.get(m) or {}).get('excess') or {}).get(d)
-                cells.append('—' if e is None else f'{100 * e:+.1f} %')
-            lines.append(f'| {design_label(d)} | ' + ' | '.join(cells) + ' |')
-    lines += ['', '**Collocation vs time marching** (largest relative difference over the '
-              'weighted J_k, and the term)', '',
-              '| design \\ model | ' + ' | '.join(model_label(data, m) for m in models) + ' |',
-              '|---|' + '---|' * len(models)]
-    for d in designs:
-        cells = []
-        for m in models:
-            v = ((_cell(data, d, m) or {}).get('verification') or {})
-            if 'max_rel_diff' in v:
-                cells.append(f"{100 * v['max_rel_diff']:.3f} % ({v['scenarios'][0]['worst_term']})"
-                             + ('' if v['verified'] else ' **NOT verified**'))
-            else:
-                cells.append('—')
-        lines.append(f'| {design_label(d)} | ' + ' | '.join(cells) + ' |')
+        lines += table("**Excess over the model's own optimum**, f / f* − 1 (what a design "
+                       'found on another model costs in this one)', excess)
+    lines += table('**Collocation vs time marching** (largest relative difference over the '
+                   'weighted J_k, and the term)', agreement)
     lines += ['', '**Objective terms J_k at each model\'s own optimum** (collocation)', '',
               '| model | ' + ' | '.join(f'J_{t} [{term_units(t)}]' for t in terms) + ' |',
               '|---|' + '---|' * len(terms)]
