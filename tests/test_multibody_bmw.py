@@ -41,7 +41,7 @@ from suspopt.multibody.mechanism import Marker, load_mechanism
 from suspopt.multibody.simulate import simulate_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
-from test_multibody_exudyn import (H, OUT_DT, T_PULSE, LoadForceVector,  # noqa: E402
+from test_multibody_exudyn import (T_PULSE, LoadForceVector, solve_exudyn,  # noqa: E402
                                    MarkerBodyPosition, MarkerBodyRigid, NodeRigidBody2D,
                                    ObjectGround,
                                    PrismaticJoint2D, RevoluteJoint2D, RigidBody2D,
@@ -571,17 +571,7 @@ def run_exudyn_corner(corner: dict) -> dict:
     for k, j in enumerate(pins):
         sensors[k] = mbs.AddSensor(SensorObject(objectNumber=j, storeInternal=True,
                                                 outputVariableType=out.Force))
-    mbs.Assemble()
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = int(round(EX_T_END / H))
-    ss.timeIntegration.endTime = EX_T_END
-    ss.timeIntegration.verboseMode = 0
-    ss.timeIntegration.generalizedAlpha.useIndex2Constraints = True
-    ss.timeIntegration.generalizedAlpha.useNewmark = True
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = OUT_DT
-    mbs.SolveDynamic(ss)
-    return {k: mbs.GetSensorStoredData(s) for k, s in sensors.items()}
+    return solve_exudyn(mbs, sensors, EX_T_END)
 
 
 @pytest.mark.parametrize('name, corner', [('bmw_e90_front', EX_FRONT),

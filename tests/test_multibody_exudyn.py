@@ -57,6 +57,26 @@ T_END, H = 1.5, 1e-4
 OUT_DT = 0.01
 
 
+def solve_exudyn(mbs, sensors: dict, t_end: float) -> dict:
+    """Assemble ``mbs``, integrate it to ``t_end`` (generalized-α with index-2 constraints,
+    Newmark, step H) and return every sensor's stored data (every OUT_DT)."""
+    mbs.Assemble()
+    ss = exu.SimulationSettings()
+    ss.timeIntegration.numberOfSteps = int(round(t_end / H))
+    ss.timeIntegration.endTime = t_end
+    ss.timeIntegration.verboseMode = 0
+    ss.timeIntegration.generalizedAlpha.useIndex2Constraints = True
+    ss.timeIntegration.generalizedAlpha.useNewmark = True
+    if hasattr(ss, 'solution'):                     # exudyn >= 1.12
+        ss.solution.file.write = False
+        ss.solution.sensors.writePeriod = OUT_DT
+    else:
+        ss.solutionSettings.writeSolutionToFile = False
+        ss.solutionSettings.sensorsWritePeriod = OUT_DT
+    mbs.SolveDynamic(ss)
+    return {k: mbs.GetSensorStoredData(s) for k, s in sensors.items()}
+
+
 def tyre_force(t: float) -> float:
     return F_PEAK * math.sin(math.pi * t / T_PULSE) ** 2 if t < T_PULSE else 0.0
 
@@ -132,21 +152,7 @@ def run_exudyn(linkage: dict):
     for k, j in enumerate(joints):
         sensors[k] = mbs.AddSensor(SensorObject(objectNumber=j, storeInternal=True,
                                                 outputVariableType=exu.OutputVariableType.Force))
-    mbs.Assemble()
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = int(round(T_END / H))
-    ss.timeIntegration.endTime = T_END
-    ss.timeIntegration.verboseMode = 0
-    ss.timeIntegration.generalizedAlpha.useIndex2Constraints = True
-    ss.timeIntegration.generalizedAlpha.useNewmark = True
-    if hasattr(ss, 'solution'):                     # exudyn >= 1.12
-        ss.solution.file.write = False
-        ss.solution.sensors.writePeriod = OUT_DT
-    else:
-        ss.solutionSettings.writeSolutionToFile = False
-        ss.solutionSettings.sensorsWritePeriod = OUT_DT
-    mbs.SolveDynamic(ss)
-    return {k: mbs.GetSensorStoredData(s) for k, s in sensors.items()}
+    return solve_exudyn(mbs, sensors, T_END)
 
 
 @pytest.fixture(scope='module', params=list(LINKAGES))
@@ -277,17 +283,7 @@ def run_exudyn_macpherson():
     for k, j in enumerate(revolutes):
         sensors[k] = mbs.AddSensor(SensorObject(objectNumber=j, storeInternal=True,
                                                 outputVariableType=out.Force))
-    mbs.Assemble()
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = int(round(MP_T_END / H))
-    ss.timeIntegration.endTime = MP_T_END
-    ss.timeIntegration.verboseMode = 0
-    ss.timeIntegration.generalizedAlpha.useIndex2Constraints = True
-    ss.timeIntegration.generalizedAlpha.useNewmark = True
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = OUT_DT
-    mbs.SolveDynamic(ss)
-    return {k: mbs.GetSensorStoredData(s) for k, s in sensors.items()}
+    return solve_exudyn(mbs, sensors, MP_T_END)
 
 
 @pytest.fixture(scope='module')
