@@ -61,16 +61,18 @@ def git_revision() -> str:
         return 'unknown'
 
 
-def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float]) -> dict[str, Any]:
+def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float],
+                   totals: str = 'auto') -> dict[str, Any]:
     """One optimization as `suspopt optimize` does it, timed by phase: setup (building the
     Dymos/OpenMDAO problem), guess (the starting trajectory, `transcription.initial_guess`),
     coloring
-    (zero when cached), solve (IPOPT, coloring excluded) and their total."""
+    (zero when cached), solve (IPOPT, coloring excluded) and their total. ``totals``: the
+    driver's total-derivative method (``'solves'``: one OpenMDAO linear solve per color)."""
     from suspopt.transcription.problem import VehicleProblem
     from suspopt.study import initial_guess
 
     t0 = time.perf_counter()
-    vp = VehicleProblem(cfg, fidelity, scales)
+    vp = VehicleProblem(cfg, fidelity, scales, totals=totals)
     t1 = time.perf_counter()
     vp.set_design(start)
     vp.set_initial_guess(initial_guess(cfg, fidelity, start))

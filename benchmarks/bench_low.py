@@ -1,12 +1,15 @@
 """Benchmark: low-fidelity optimization (issue 5), side by side with the CasADi peer.
 
     python benchmarks/bench_low.py [--repeat 3] [--segments 80] [--normalization paper] [--no-peer]
+                                   [--compare-totals]
 
 Prints, for suspopt: the one-time total-coloring cost (empty cache) and, over repeats with
 the cached coloring, setup (building the Dymos/OpenMDAO problem), initial guess (the
 default `auto`: zero states for the half car), solve (IPOPT, including the model
 evaluations and colored total derivatives), total, IPOPT iterations and evaluations; and for the hand-written CasADi direct collocation
 of the same problem (benchmarks/casadi_peer.py): build, solve, total and its optimum.
+``--compare-totals`` also runs, interleaved with the others, the driver's public-API
+total derivatives (one OpenMDAO linear solve per color) and prints both side by side.
 """
 from __future__ import annotations
 
@@ -24,8 +27,8 @@ DESIGN_NAMES = StudyConfig().design_names()
 from suspopt.study import resolve_scales  # noqa: E402
 
 
-def run_once(cfg: StudyConfig, scales) -> dict:
-    out = timed_optimize(cfg, 'low', scales, cfg.design.initial())
+def run_once(cfg: StudyConfig, scales, totals: str = 'auto') -> dict:
+    out = timed_optimize(cfg, 'low', scales, cfg.design.initial(), totals=totals)
     out.pop('problem').cleanup()
     assert out['success'], 'IPOPT did not converge'
     return out
@@ -37,6 +40,7 @@ def main() -> None:
     ap.add_argument('--segments', type=int, default=StudyConfig().transcription.segments)
     ap.add_argument('--order', type=int, default=5)
     ap.add_argument('--no-peer', action='store_true')
+    ap.add_argument('--compare-totals', action='store_true')
     ap.add_argument('--normalization', choices=('reference', 'paper'), default='reference')
     args = ap.parse_args()
     cfg = StudyConfig()
@@ -50,7 +54,11 @@ def main() -> None:
           f'{args.normalization} normalization — {machine()}, suspopt {git_revision()}\n')
     with fresh_cache():
         cold = run_once(cfg, scales)
-        warm = [run_once(cfg, scales) for _ in range(args.repeat)]
+        warm, solves = [], []
+        for _ in range(args.repeat):
+            warm.append(run_once(cfg, scales))
+            if args.compare_totals:
+                solves.append(run_once(cfg, scales, totals='solves'))
     print(f"one-time total coloring (empty cache): {cold['coloring']:.2f} s; first run total "
           f"{cold['total']:.2f} s\n")
     rows = [(f'{k} [s]' if k not in ('iterations', 'fevals', 'gevals') else k,
@@ -58,6 +66,15 @@ def main() -> None:
             for k in ('setup', 'guess', 'solve', 'total', 'iterations', 'fevals', 'gevals')]
     print(f'suspopt, cached coloring, {args.repeat} runs:\n')
     print(table(rows))
+    if solves:
+        med = lambda rs, k: sorted(r[k] for r in rs)[len(rs) // 2]  # noqa: E731
+        print(f'\nthe same with one OpenMDAO linear solve per color (public path), '
+              f'{args.repeat} runs interleaved:\n')
+        print(table([(f'{k} [s]', [r[k] for r in solves]) for k in ('solve', 'total')]
+                    + [('iterations', [r['iterations'] for r in solves])]))
+        print(f"\nsolve, propagated / linear solves (medians): "
+              f"{med(warm, 'solve') / med(solves, 'solve'):.2f}x; optimum difference "
+              f"{max(abs(warm[-1]['design'][n] / solves[-1]['design'][n] - 1) for n in DESIGN_NAMES):.1e}")
     x = warm[-1]['design']
     print('\noptimum: ' + ', '.join(f'{n} = {x[n]:.2f}' for n in DESIGN_NAMES)
           + f", f = {warm[-1]['f']:.7f}")

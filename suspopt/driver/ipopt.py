@@ -40,6 +40,7 @@ import numpy as np
 import openmdao.api as om
 
 from suspopt.driver.sparsity import Coloring, compute_coloring
+from suspopt.driver.propagation import PropagatedTotals, make_totals
 from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
 
 #: IPOPT's return statuses (IpReturnCodes.h).
@@ -236,15 +237,18 @@ class IpoptDriver:
     (:func:`~suspopt.driver.sparsity.compute_coloring`), e.g. from a cache; computed on the
     first :meth:`run` if not given. ``progress`` receives an :class:`IterationInfo` after
     every iteration; ``watch`` names design variables whose physical values it carries.
-    ``opt_settings`` are further raw IPOPT options.
+    ``opt_settings`` are further raw IPOPT options. ``totals``: how the total derivatives
+    are computed (:data:`~suspopt.driver.propagation.TOTALS_METHODS`; ``'auto'`` propagates
+    every color at once where the model allows it).
     """
 
     def __init__(self, problem: om.Problem, *, max_iter: int = 3000, tol: float = 1e-8,
                  print_level: int = 0, hessian_approximation: str = 'limited-memory',
                  progress: Callable[[IterationInfo], None] | None = None,
                  watch: tuple[str, ...] | list[str] = (), coloring: Coloring | None = None,
-                 opt_settings: dict[str, Any] | None = None):
+                 opt_settings: dict[str, Any] | None = None, totals: str = 'auto'):
         self.problem = problem
+        self.totals_method = totals
         self.options = {'max_iter': max_iter, 'tol': tol, 'print_level': print_level,
                         'hessian_approximation': hessian_approximation}
         self.progress = progress
@@ -258,7 +262,7 @@ class IpoptDriver:
         self.last_error: str | None = None
         self.interrupted = False
         self._layout: Layout | None = None
-        self._totals: ColoredTotals | None = None
+        self._totals: ColoredTotals | PropagatedTotals | None = None
 
     # ------------------------------------------------------------------ layout
     def layout(self) -> Layout:
@@ -427,7 +431,7 @@ class IpoptDriver:
         self._t0 = time.perf_counter()
         coloring = self.total_coloring()
         if self._totals is None or self._totals.coloring is not coloring:
-            self._totals = ColoredTotals(self.problem, lay, coloring)
+            self._totals = make_totals(self.problem, lay, coloring, self.totals_method)
         if coloring is not None:
             self._jrows, self._jcols = coloring.rows, coloring.cols
         else:  # no constraints

@@ -28,9 +28,8 @@ from pathlib import Path
 import numpy as np
 import openmdao.api as om
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
-
 import suspopt.driver.structure as structure
+from suspopt.driver.dataflow import data_flow
 
 
 @dataclass(frozen=True)
@@ -109,30 +108,11 @@ def structural_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Varia
                         ) -> sp.csr_matrix:
     """The exact pattern of ``d of / d wrt`` (rows: ``of`` entries in order, columns:
     ``wrt`` entries in order) from the declared partials of every component."""
-    model = problem.model
-    sources = structure.input_sources(model)
-    sizes = {name: int(meta['size']) for name, meta in model.get_io_metadata(
-        iotypes='output', metadata_keys=['size'], return_rel_names=False).items()}
-
-    # dependencies of every output: (source output, pattern of d output / d source)
-    deps: dict[str, list[tuple[str, sp.csr_matrix]]] = {}
-    comps = [s for s in model.system_iter(recurse=True)
-             if isinstance(s, (om.ExplicitComponent, om.ImplicitComponent))]
-    for comp in comps:
-        for sj in structure.declared_subjacs(comp):
-            if sj.wrt in sources:  # an input: through its connection
-                src, idx = sources[sj.wrt]
-                cols = sj.cols if idx is None else idx[sj.cols]
-                shape = (sj.shape[0], sizes[src])
-            elif sj.wrt in sizes:  # an output (implicit component)
-                src, cols, shape = sj.wrt, sj.cols, (sj.shape[0], sizes[sj.wrt])
-            else:  # an unconnected input: a constant
-                continue
-            if sj.rows.size == 0:
-                continue
-            pattern = sp.csr_matrix((np.ones(sj.rows.size, dtype=np.float32),
-                                     (sj.rows, cols)), shape=shape)
-            deps.setdefault(sj.of, []).append((src, pattern))
+    flow = data_flow(problem, [v.source for v in of])
+    sizes = flow.sizes
+    patterns = {id(e): sp.csr_matrix((np.ones(e.rows.size, dtype=np.float32), (e.rows, e.cols)),
+                                 shape=e.shape)
+                for edges in flow.deps.values() for e in edges}
 
     # columns: one per design-variable entry
     ncol = sum(v.size for v in wrt)
@@ -146,43 +126,20 @@ def structural_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Varia
         seeds[v.source] = seed if v.source not in seeds else _bool(seeds[v.source] + seed)
         start += idx.size
 
-    # only the ancestors of the responses matter
-    needed, stack = set(), [v.source for v in of]
-    while stack:
-        name = stack.pop()
-        if name in needed:
-            continue
-        needed.add(name)
-        stack.extend(src for src, _ in deps.get(name, ()))
-    names = sorted(needed)
-    index = {n: i for i, n in enumerate(names)}
-    edges = [(index[src], index[o]) for o in names for src, _ in deps.get(o, ())]
-    graph = sp.csr_matrix((np.ones(len(edges)), tuple(np.array(edges, dtype=np.int64).T)
-                           if edges else ([], [])), shape=(len(names), len(names)))
-    n_scc, label = connected_components(graph, directed=True, connection='strong')
-    order = _topological_order(graph, n_scc, label)
-
-    consumers = {n: 0 for n in names}
-    for o in names:
-        for src, _ in deps.get(o, ()):
-            consumers[src] += 1
+    consumers = flow.consumers()
     keep = {v.source for v in of}
     S: dict[str, sp.csr_matrix] = {}
 
     def evaluate(o: str) -> sp.csr_matrix:
         out = seeds.get(o, sp.csr_matrix((sizes[o], ncol), dtype=np.float32))
-        for src, pattern in deps.get(o, ()):
-            s = S.get(src)
+        for e in flow.deps[o]:
+            s = S.get(e.src)
             if s is not None and s.nnz:
-                out = out + pattern @ s
+                out = out + patterns[id(e)] @ s
         return _bool(out)
 
-    members: dict[int, list[str]] = {}
-    for n in names:
-        members.setdefault(int(label[index[n]]), []).append(n)
-    for scc in order:
-        group = members[scc]
-        if len(group) == 1 and not any(src == group[0] for src, _ in deps.get(group[0], ())):
+    for group in flow.groups:
+        if not flow.is_cycle(group):
             S[group[0]] = evaluate(group[0])
         else:  # a cycle: iterate to the fixed point (the structural closure)
             for n in group:
@@ -197,38 +154,16 @@ def structural_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Varia
                 if not changed:
                     break
         for n in group:  # free what no one downstream needs any more
-            for src, _ in deps.get(n, ()):
-                consumers[src] -= 1
-                if consumers[src] == 0 and src not in keep and src in S:
-                    del S[src]
+            for e in flow.deps[n]:
+                consumers[e.src] -= 1
+                if consumers[e.src] == 0 and e.src not in keep and e.src in S:
+                    del S[e.src]
 
     blocks = []
     for v in of:
         s = S[v.source]
         blocks.append(s if v.indices is None else s[v.indices])
     return _bool(sp.vstack(blocks, format='csr')) if blocks else sp.csr_matrix((0, ncol))
-
-
-def _topological_order(graph: sp.csr_matrix, n_scc: int, label: np.ndarray) -> list[int]:
-    """The strongly connected components of ``graph`` in topological order (Kahn)."""
-    g = graph.tocoo()
-    a, b = label[g.row], label[g.col]
-    keep = a != b
-    cond = sp.csr_matrix((np.ones(int(keep.sum())), (a[keep], b[keep])), shape=(n_scc, n_scc))
-    cond.sum_duplicates()
-    indeg = np.asarray((cond > 0).sum(axis=0)).ravel()
-    ready = list(np.nonzero(indeg == 0)[0])
-    order = []
-    while ready:
-        c = ready.pop()
-        order.append(int(c))
-        for d in cond.indices[cond.indptr[c]:cond.indptr[c + 1]]:
-            indeg[d] -= 1
-            if indeg[d] == 0:
-                ready.append(d)
-    if len(order) != n_scc:  # pragma: no cover - the condensation is acyclic by definition
-        raise RuntimeError('internal error: cyclic condensation')
-    return order
 
 
 def color_columns(pattern: sp.spmatrix) -> np.ndarray:

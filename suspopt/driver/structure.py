@@ -7,7 +7,8 @@ reads them from its internals, and nothing else in suspopt does. Private names u
 
 * ``Component._subjacs_info`` — the declared sub-Jacobians: ``{(of, wrt): meta}`` with
   ``meta['rows']``, ``meta['cols']`` (sparse pattern), ``meta['diagonal']``,
-  ``meta['shape']`` (absolute variable names);
+  ``meta['shape']`` (absolute variable names), and ``meta['val']``, the values of the last
+  linearization (read by :meth:`Subjac.values` for the propagated total derivatives);
 * ``Group._conn_global_abs_in2out`` — every input's source output (absolute names);
 * ``System._var_abs2meta['input'][name]['src_inds_list']`` — the chain of source indices of
   a connected input (turned into one flat index array by OpenMDAO's public
@@ -19,7 +20,7 @@ total coloring instead. ``tests/test_sparsity.py`` checks that both give the sam
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterator
 
 import numpy as np
@@ -39,13 +40,19 @@ def supported() -> bool:
 @dataclass(frozen=True)
 class Subjac:
     """One declared sub-Jacobian ``d of / d wrt`` of a component, as a coordinate pattern
-    (local row and column indices; ``dense`` when declared without a pattern)."""
+    (local row and column indices; every entry when declared without a pattern)."""
 
     of: str
     wrt: str
     rows: np.ndarray
     cols: np.ndarray
     shape: tuple[int, int]
+    _meta: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def values(self) -> np.ndarray:
+        """The values at ``rows``/``cols`` from the component's last linearization."""
+        val = np.asarray(self._meta['val'], dtype=float).ravel()
+        return val if val.size == self.rows.size else np.broadcast_to(val, self.rows.shape)
 
 
 def declared_subjacs(component: om.ExplicitComponent | om.ImplicitComponent
@@ -66,7 +73,7 @@ def declared_subjacs(component: om.ExplicitComponent | om.ImplicitComponent
         else:  # declared dense
             rows = np.repeat(np.arange(shape[0], dtype=np.int64), shape[1])
             cols = np.tile(np.arange(shape[1], dtype=np.int64), shape[0])
-        yield Subjac(of=of, wrt=wrt, rows=rows, cols=cols, shape=shape)
+        yield Subjac(of=of, wrt=wrt, rows=rows, cols=cols, shape=shape, _meta=meta)
 
 
 def input_sources(model: om.Group) -> dict[str, tuple[str, np.ndarray | None]]:

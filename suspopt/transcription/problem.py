@@ -101,12 +101,14 @@ class VehicleProblem:
     recorder : path of an SQLite case recorder, or None.
     progress : callable receiving an :class:`IterationInfo` after every IPOPT iteration.
     use_cache : reuse/save the total coloring in the coloring cache.
+    totals : how the driver computes total derivatives
+        (:data:`suspopt.driver.propagation.TOTALS_METHODS`).
     """
 
     def __init__(self, config: StudyConfig, fidelity: str, scales: Scales, *,
                  optimize_design: bool = True, recorder: str | Path | None = None,
                  progress: Callable[[IterationInfo], None] | None = None,
-                 use_cache: bool = True):
+                 use_cache: bool = True, totals: str = 'auto'):
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {FIDELITIES}, got {fidelity!r}")
         t0 = time.perf_counter()
@@ -175,7 +177,8 @@ class VehicleProblem:
             self.driver = IpoptDriver(p, max_iter=opt.max_iter, tol=opt.tol,
                                       print_level=opt.print_level, progress=progress,
                                       watch=[self.design_var(n) for n in self.design_names],
-                                      coloring=cached, opt_settings=opt.options)
+                                      coloring=cached, opt_settings=opt.options,
+                                      totals=totals)
 
             self.recorder_path = None
             if recorder is not None:
