@@ -228,6 +228,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return _check_result(res) if args.method == 'collocation' else 0
 
 
+def _jobs(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if n < 0:
+        raise argparse.ArgumentTypeError(f'must be a whole number >= 0, got {text!r}')
+    return n
+
+
 def cmd_study(args: argparse.Namespace) -> int:
     from suspopt.results import RunDirectory
     from suspopt.study import StepFailed, run_study
@@ -237,7 +247,7 @@ def cmd_study(args: argparse.Namespace) -> int:
         log(f'two-step study; results in {out.path}')
         try:
             study = run_study(config, out, progress=progress, log=log,
-                              verify=not args.no_verify)
+                              verify=not args.no_verify, verify_jobs=args.verify_jobs)
         except StepFailed as err:
             print(f'suspopt: error: {err}; partial results in {out.path}', file=sys.stderr)
             return 1
@@ -462,6 +472,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser('study', help="run the paper's two-step study", epilog=EPILOG)
     common(p)
     run_opts(p, 'results/study')
+    p.add_argument('--verify-jobs', type=_jobs, dest='verify_jobs', metavar='N',
+                   help='time-marching verifications run at once in background processes, '
+                        'beside the optimizations (default: the cores less one; 0: each in '
+                        'this process after its solve)')
     p.set_defaults(func=cmd_study)
 
     p = sub.add_parser('coupling', help='how much the coupling of the multibody modules '

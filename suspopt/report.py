@@ -21,7 +21,7 @@ a value as a result; trajectories are drawn only of converged results. It writes
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -432,7 +432,8 @@ def render(out_dir: str | Path) -> list[Path]:
 
 
 def render_study(out: Path) -> list[Path]:
-    """Write ``table.md`` and the figures of a (possibly partial) study directory."""
+    """Write ``table.md`` and the figures of a (possibly partial) study directory (the
+    figures drawn side by side in background processes, :func:`draw_figures`)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -441,7 +442,9 @@ def render_study(out: Path) -> list[Path]:
     write_text(out / 'table.md', table_markdown(study))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', road_figure(figs / 'road.png', out, study['config'])]
+    written = [out / 'table.md']
+    jobs: list[Callable[[], Path]] = [
+        lambda: road_figure(figs / 'road.png', out, study['config'])]
     terms, labels = study['terms'], corner_labels(out, study['config'])
 
     import openmdao.api as om
@@ -464,13 +467,13 @@ def render_study(out: Path) -> list[Path]:
     low_style = {'color': 'tab:blue', 'lw': 1.3}
     mixed_style = {'color': 'tab:red', 'lw': 1.1, 'ls': '--'}
     if ('low', 'initial') in traj and ('mixed', 'initial') in traj:
-        written.append(plot_set(
+        jobs.append(lambda: plot_set(
             figs / 'initial_design.png',
             'Initial design: low- vs mixed-fidelity model — paper Fig. 4',
             [('low fidelity', traj['low', 'initial'], low_style),
              ('mixed fidelity', traj['mixed', 'initial'], mixed_style)], terms, labels))
     if ('low', 'low_optimum') in traj and ('mixed', 'mixed_optimum') in traj:
-        written.append(plot_set(
+        jobs.append(lambda: plot_set(
             figs / 'optima.png',
             'Optimal designs: low-fidelity optimum (low-fidelity model) vs mixed-fidelity '
             'optimum (multibody) — paper Fig. 5',
@@ -483,36 +486,50 @@ def render_study(out: Path) -> list[Path]:
                   (('initial', {'color': 'gray', 'lw': 1.0}),
                    ('low_optimum', low_style), ('mixed_optimum', mixed_style))
                   if ('mixed', n) in traj]
-        written.append(plot_set(figs / 'cross_evaluation.png',
-                                 'All three designs in the mixed-fidelity (multibody) model',
-                                 curves, terms, labels))
+        jobs.append(lambda: plot_set(
+            figs / 'cross_evaluation.png',
+            'All three designs in the mixed-fidelity (multibody) model', curves, terms, labels))
     tm_path = out / 'time_marching.npz'
     if tm_path.exists() and traj:
         try:
             data = np.load(tm_path)
         except Exception as err:  # numpy's and zipfile's errors of a damaged file
             raise ConfigError(f'{tm_path}: damaged ({err})') from None
-        panels = panel_specs(terms)
-        fig, axes = panel_figure('Collocation (markers) vs time marching (lines)', panels)
-        for (fid, name), style in ((('low', 'low_optimum'), low_style),
-                                   (('mixed', 'mixed_optimum'), mixed_style)):
-            key = f'{fid}/{name}'
-            if (fid, name) not in traj or f'{key}/t' not in data:
-                continue
-            tm = {k.split('/')[-1]: data[k] for k in data.files if k.startswith(key + '/')}
-            for ax, (sig, _, _) in zip(axes, panels):
-                plot_curves(ax, sig, tm['t'], tm, labels, f'{fid} fidelity, time marching',
-                        dict(style, lw=0.9, ls='-'))
-                plot_curves(ax, sig, traj[fid, name].t, traj[fid, name].values, labels,
-                        f'{fid} fidelity, collocation nodes', style, marker=True)
-        axes[0].legend(fontsize=7)
-        fig.savefig(figs / 'verification.png', dpi=110)
-        plt.close(fig)
-        written.append(figs / 'verification.png')
+
+        def verification_figure() -> Path:
+            panels = panel_specs(terms)
+            fig, axes = panel_figure('Collocation (markers) vs time marching (lines)', panels)
+            for (fid, name), style in ((('low', 'low_optimum'), low_style),
+                                       (('mixed', 'mixed_optimum'), mixed_style)):
+                key = f'{fid}/{name}'
+                if (fid, name) not in traj or f'{key}/t' not in data:
+                    continue
+                tm = {k.split('/')[-1]: data[k] for k in data.files if k.startswith(key + '/')}
+                for ax, (sig, _, _) in zip(axes, panels):
+                    plot_curves(ax, sig, tm['t'], tm, labels, f'{fid} fidelity, time marching',
+                                dict(style, lw=0.9, ls='-'))
+                    plot_curves(ax, sig, traj[fid, name].t, traj[fid, name].values, labels,
+                                f'{fid} fidelity, collocation nodes', style, marker=True)
+            axes[0].legend(fontsize=7)
+            fig.savefig(figs / 'verification.png', dpi=110)
+            plt.close(fig)
+            return figs / 'verification.png'
+        jobs.append(verification_figure)
     steps = {fid: step for fid, step in study.get('steps', {}).items() if step}
     if steps:
-        written.append(_convergence_figure(figs / 'convergence.png', steps))
-    return written
+        jobs.append(lambda: _convergence_figure(figs / 'convergence.png', steps))
+    return written + draw_figures(jobs)
+
+
+def draw_figures(jobs: list[Callable[[], Path]]) -> list[Path]:
+    """Run the figure-drawing ``jobs`` side by side, one background process per core
+    (:mod:`suspopt.background`; here, one after another, where that is not available);
+    their paths, in order."""
+    from suspopt.background import Background, usable_cores
+    with Background(jobs=usable_cores() if len(jobs) > 1 else 0) as bg:
+        for k, job in enumerate(jobs):
+            bg.submit(str(k), job)
+        return [bg.result(str(k)) for k in range(len(jobs))]
 
 
 # ---------------------------------------------------------------------------- coupling

@@ -19,6 +19,7 @@ many can run side by side in separate processes.
 """
 from __future__ import annotations
 
+import functools
 import math
 import time
 from pathlib import Path
@@ -26,6 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from suspopt.background import Background
 from suspopt.config import PAPER_SCALES, StudyConfig
 from suspopt.driver import IterationInfo
 from suspopt.errors import ModelError
@@ -137,6 +139,11 @@ def time_marching_check(config: StudyConfig, fidelity: str, design: dict[str, fl
     if keep:
         out['trajectories'] = trajs
     return out
+
+
+def pending_verification() -> dict[str, Any]:
+    return {'verified': None, 'pending': True,
+            'note': 'time-marching verification running in the background'}
 
 
 def skipped_verification() -> dict[str, Any]:
@@ -362,7 +369,7 @@ def _strip(record: dict[str, Any]) -> tuple[dict[str, Any], list[Trajectory]]:
 
 def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
               progress: Progress | None = None, log: Callable[[str], None] | None = None,
-              verify: bool = True) -> dict[str, Any]:
+              verify: bool = True, verify_jobs: int | None = None) -> dict[str, Any]:
     """The two-step study of SPEC §7, written to ``out_dir`` as it goes.
 
     1. low-fidelity optimization from the initial design;
@@ -371,7 +378,11 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
     (with ``verify``) by time marching. Writes ``study.json`` (after every step),
     ``table.md``, the case recorders ``low.sql`` and ``mixed.sql`` (the full trajectories
     of every design in each model), ``time_marching.npz`` and the figures in
-    ``figures/``. Returns the study dictionary."""
+    ``figures/``. Returns the study dictionary.
+
+    The time-marching verifications run beside the optimizations, in background processes
+    (:mod:`suspopt.background`; ``verify_jobs`` of them at once, None: the cores less one;
+    0: each in this process, after the solves), and are written as they come in."""
     from suspopt import report  # matplotlib only when figures are drawn
 
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
@@ -402,22 +413,59 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         save()
         return record
 
+    checks = Background(verify_jobs if verify else 0)
+    waiting: dict[str, Callable[[dict[str, Any]], None]] = {}  # job -> what to do with it
+
+    def check_later(fid: str, name: str, record: dict[str, Any],
+                    done: Callable[[dict[str, Any]], None]) -> None:
+        """Verify ``record`` (design ``name`` in model ``fid``) by time marching in the
+        background; ``done`` is called again with the record once its verification is in.
+        A failed solve, or ``verify`` off, is marked at once."""
+        if not verify or not record['success']:
+            _attach_verification(config, fid, record, scales, problems[fid], verify)
+            return
+        key = f'{fid}/{name}'
+        record['verification'], record['verified'] = pending_verification(), None
+        checks.submit(key, functools.partial(
+            time_marching_check, config, fid, record['design'],
+            [s['terms'] for s in record['scenarios']], scales,
+            modules=problems[fid].modules or None, keep=True))
+
+        def finish(verification: dict[str, Any]) -> None:
+            record['verification'] = verification
+            record['verified'] = verified(record)
+            done(record)
+        waiting[key] = finish
+
+    def collect(block: bool) -> None:
+        """Attach the verifications that are done (with ``block``: all of them)."""
+        for key in checks.pending():
+            if block or checks.done(key):
+                waiting.pop(key)(checks.result(key))
+
+    def pumped(info: IterationInfo) -> None:
+        checks.pump()
+        if progress is not None:
+            progress(info)
+
     def evaluation(fid: str, name: str, **kw: Any) -> None:
         """Evaluate design ``name`` in model ``fid`` and keep it; interrupted, keep it
         only if IPOPT had converged (then not verified, and said so) and stop."""
         try:
             rec = evaluate(config, fid, designs[name], scales=scales, problem=problems[fid],
-                           label=name, verify=verify, keep_trajectories=True, **kw)
+                           label=name, verify=False, keep_trajectories=True, **kw)
         except Interrupted as stop:
             if stop.result and stop.result['success']:
                 keep(fid, name, stop.result)
             raise
+        check_later(fid, name, rec, lambda r: keep(fid, name, r))
         keep(fid, name, rec)
+        collect(block=False)
 
     try:
         for fid in ('low', 'mixed'):
             problems[fid] = VehicleProblem(config, fid, scales, recorder=out / f'{fid}.sql',
-                                           progress=progress)
+                                           progress=pumped)
         low, mixed = problems['low'], problems['mixed']
 
         def step(fid: str, start: str, result: str, guess) -> None:
@@ -440,11 +488,15 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
             if not res['success']:
                 raise StepFailed(fid, res)
             ev = dict(res, mode='optimize')
-            _attach_verification(config, fid, ev, scales, problems[fid], verify, keep=True)
-            study['steps'][fid]['verification'] = {k: v for k, v in ev['verification'].items()
-                                                   if k != 'trajectories'}
-            study['steps'][fid]['verified'] = ev['verified']
-            keep(fid, result, ev)
+
+            def done(record: dict[str, Any]) -> None:
+                v = record['verification']
+                study['steps'][fid]['verification'] = {k: x for k, x in v.items()
+                                                       if k != 'trajectories'}
+                study['steps'][fid]['verified'] = record['verified']
+                keep(fid, result, record)
+            check_later(fid, result, ev, done)
+            done(ev)
 
         say('step 1/2: low-fidelity model at the initial design (evaluation), then its '
             'optimization from there')
@@ -459,6 +511,9 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         evaluation('mixed', 'initial')
         evaluation('low', 'mixed_optimum',
                    guess=[mixed.timeseries(i) for i in range(len(mixed.scenarios))])
+        if checks.pending():
+            say('waiting for the time-marching verifications')
+        collect(block=True)
         study['designs'] = designs
         if arrays:
             np.savez_compressed(out / 'time_marching.npz', **arrays)
@@ -480,7 +535,19 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         save()
         say('writing table and figures')
         report.render(out)
+    except BaseException:
+        for key in checks.pending():  # what did not come in is not verified, and says so
+            if checks.done(key):
+                try:
+                    waiting[key](checks.result(key))
+                    continue
+                except Exception:
+                    pass
+            waiting[key](interrupted_verification())
+        save()
+        raise
     finally:
+        checks.close()
         for prob in problems.values():
             prob.cleanup()
     return study

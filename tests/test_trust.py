@@ -15,6 +15,7 @@ import errno
 import io
 import json
 import math
+import multiprocessing
 import os
 import re
 import signal
@@ -370,6 +371,10 @@ def test_a_study_interrupted_after_a_step_converged_keeps_that_step(tmp_path, ca
     step = data['steps']['low']
     assert step['success'] and step['interrupted'] and step['verified'] is None
     assert 'interrupted' in step['verification']['note']
+    # the first evaluation's verification ran in the background: in, or said to be cut off
+    first = data['evaluations']['low/initial']
+    assert first['verified'] is True or first['verification'].get('interrupted')
+    assert not multiprocessing.active_children()  # no background process left
 
 
 def _wait_for(proc: subprocess.Popen, lines: list[str], *patterns: str) -> None:
