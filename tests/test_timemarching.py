@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 
-from suspopt.config import StudyConfig
+from suspopt.config import StudyConfig, config_from_dict
 from suspopt.road import wheel_road_inputs
 from suspopt.timemarching import reference_scales, simulate
 
@@ -90,3 +91,18 @@ def test_reference_scales_make_f_one():
     tr = simulate(cfg, 'low')
     np.testing.assert_allclose(tr.J, [s[t] for t in cfg.terms()], rtol=1e-7)
     assert all(v > 0 for v in s.values())
+
+
+@pytest.mark.parametrize('fidelity', ['low', 'mixed'])
+def test_verification_tolerances_give_the_integrals_far_inside_the_check(fidelity):
+    """The study's verification integrates at VERIFY_RTOL: its J_k agree with a tight
+    integration (rtol 1e-10) to 1e-5, hundreds of times inside VERIFY_TOLERANCE — and the
+    looser 1e-3 of the initial guess would not (so the comparison can fail)."""
+    from suspopt.study import VERIFY_ATOL, VERIFY_RTOL, VERIFY_TOLERANCE
+    cfg = config_from_dict({'maneuver': {'horizon': 5.0 if fidelity == 'low' else 2.5}})
+    design, end = cfg.design.initial(), np.array([0.0, cfg.maneuver.horizon])
+    tight = simulate(cfg, fidelity, design, rtol=1e-10, atol=1e-13, t_eval=end).J
+    check = simulate(cfg, fidelity, design, rtol=VERIFY_RTOL, atol=VERIFY_ATOL, t_eval=end).J
+    assert np.max(np.abs(check / tight - 1.0)) < 1e-5 < VERIFY_TOLERANCE / 100
+    rough = simulate(cfg, fidelity, design, rtol=1e-3, atol=1e-6, t_eval=end).J
+    assert np.max(np.abs(rough / tight - 1.0)) > 1e-5
