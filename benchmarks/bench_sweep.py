@@ -87,8 +87,8 @@ def main() -> int:
           f"{par.timings['shutdown_s']:.2f} s + validation, records, figures "
           f"{par_wall - run_s - par.timings['cluster_start_s'] - par.timings['shutdown_s']:.2f} s")
     print(f'  task times in the workers: median {statistics.median(par_times):.3f} s, sum '
-          f'{sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s; the first task of '
-          'each worker process includes its imports)')
+          f'{sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s; each worker '
+          'imports suspopt as it starts, in the cluster start)')
     print(f"  CPU time per task: median {statistics.median(r['cpu_time_s'] for r in serial):.3f} s "
           f"serial, {statistics.median(r['cpu_time_s'] for r in par_recs):.3f} s in the workers "
           '(wall above CPU: the cores were shared)')

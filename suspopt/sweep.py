@@ -560,11 +560,14 @@ def final_step(command: str, res: dict[str, Any]) -> dict[str, Any]:
 
 def dask_setup(worker: Any) -> None:
     """Worker preload (``--preload suspopt.sweep``): Ctrl-C in a terminal reaches the
-    whole process group; workers leave the interruption to the sweep's client."""
+    whole process group; workers leave the interruption to the sweep's client. The
+    modules a task needs (OpenMDAO, Dymos, the models) are imported here, as the worker
+    starts, so that no task's time includes them."""
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     except ValueError:  # not the main thread: nothing to do
         pass
+    import suspopt.study  # noqa: F401
 
 
 # ================================================================ output directory
