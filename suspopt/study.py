@@ -146,6 +146,11 @@ def time_marching_check(config: StudyConfig, fidelity: str, design: dict[str, fl
     return out
 
 
+def failed_verification(err: BaseException) -> dict[str, Any]:
+    return {'verified': None, 'failed': True,
+            'note': f'time-marching verification failed: {err}'}
+
+
 def pending_verification() -> dict[str, Any]:
     return {'verified': None, 'pending': True,
             'note': 'time-marching verification running in the background'}
@@ -443,10 +448,17 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         waiting[key] = finish
 
     def collect(block: bool) -> None:
-        """Attach the verifications that are done (with ``block``: all of them)."""
+        """Attach the verifications that are done (with ``block``: all of them). A failed
+        one is written as failed, then raised."""
         for key in checks.pending():
             if block or checks.done(key):
-                waiting.pop(key)(checks.result(key))
+                finish = waiting.pop(key)
+                try:
+                    verification = checks.result(key)
+                except Exception as err:
+                    finish(failed_verification(err))
+                    raise
+                finish(verification)
 
     def pumped(info: IterationInfo) -> None:
         checks.pump()
@@ -540,14 +552,17 @@ def run_study(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         save()
         say('writing table and figures')
         report.render(out)
-    except BaseException:
-        for key in checks.pending():  # what did not come in is not verified, and says so
-            if checks.done(key):
+    except BaseException as err:
+        # a failure keeps every verification still running (results already computed);
+        # an interrupt keeps those already in, and marks the others as not checked
+        interrupt = isinstance(err, KeyboardInterrupt)
+        for key in checks.pending():
+            if not interrupt or checks.done(key):
                 try:
                     waiting[key](checks.result(key))
-                    continue
-                except Exception:
-                    pass
+                except Exception as failed:  # noqa: BLE001 - the first error is raised
+                    waiting[key](failed_verification(failed))
+                continue
             waiting[key](interrupted_verification())
         save()
         raise
