@@ -104,14 +104,16 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
 
     # a sweep file that only gains tasks is accepted; on a local cluster of one worker,
     # Ctrl-C (SIGINT to `suspopt sweep`) once one new task has finished: exit 130, the
-    # cluster's processes gone, finished tasks kept, the other new one still pending
-    path.write_text(PRODUCT.replace('[10.0, 15.0]', '[10.0, 15.0, 20.0]'))
+    # cluster's processes gone, finished tasks kept, the other new ones still pending
+    # six new tasks: after the first is done, five are still to run (a window of several
+    # tasks for the interrupt to land in, even on a loaded machine)
+    path.write_text(PRODUCT.replace('[10.0, 15.0]', '[10.0, 15.0, 11.0, 12.0, 13.0]'))
     _interrupt(path, out, lambda: len(list((out / 'tasks').glob('*/task.json'))) > 4)
     recs = _records(out)
     assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
     assert len(recs) == 5 and all(r['state'] == 'done' for r in recs.values())
     meta = json.loads((out / 'sweep.json').read_text())
-    assert meta['counts']['done'] == 5 and meta['counts']['pending'] == 1
+    assert meta['counts']['done'] == 5 and meta['counts']['pending'] == 5
 
 
 def _interrupt(path: Path, out: Path, when) -> None:
@@ -129,8 +131,8 @@ def _interrupt(path: Path, out: Path, when) -> None:
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert 'local cluster: 1 worker process(es)' in err
-    assert 'the sweep file changed (sweep.axes.maneuver.speed: [10, 15] -> [10, 15, 20]): ' \
-           '2 new task(s); the 4 earlier task(s) are kept' in err
+    assert 'the sweep file changed (sweep.axes.maneuver.speed: [10, 15] -> ' \
+           '[10, 15, 11, 12, 13]): 6 new task(s); the 4 earlier task(s) are kept' in err
     assert 'interrupted: cancelling pending tasks' in err and 'Traceback' not in err
     assert children
     deadline = time.monotonic() + 10
