@@ -66,7 +66,10 @@ def _die_with_parent() -> None:
 
 
 def _child(fn: Callable[..., Any], args: tuple, path: str) -> None:
+    # the parent's handlers (e.g. the IPOPT driver's, set while a solve forks this) are
+    # not this process's: Ctrl-C is the parent's to handle, SIGTERM (close) ends it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _die_with_parent()
     try:
         outcome = ('ok', fn(*args))

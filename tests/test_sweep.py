@@ -120,8 +120,11 @@ def _interrupt(path: Path, out: Path, when) -> None:
     """Run ``suspopt sweep`` on a local cluster of one worker, SIGINT it once ``when()``;
     check exit 130, the message, and that every process it started is gone."""
     import psutil
+    # SIGINT at its default in the child, whatever this process inherited (a shell starts
+    # a background job with SIGINT ignored, and an ignored signal stays ignored on exec)
     proc = subprocess.Popen([sys.executable, '-m', 'suspopt.cli', 'sweep', str(path), '--out',
-                             str(out), '--workers', '1'], stderr=subprocess.PIPE, text=True)
+                             str(out), '--workers', '1'], stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     children: set[int] = set()
     deadline = time.monotonic() + 120
     while not when() and time.monotonic() < deadline:
@@ -300,8 +303,9 @@ def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
             except (KeyError, OSError):
                 pid = None
             if isinstance(pid, int) and pid not in killed:
-                if killed:
-                    time.sleep(0.3)  # the rerun gets going (a task takes > 1 s)
+                # the task gets going (a task takes > 1 s): its start event, which the
+                # attempt count is made of, has left the worker
+                time.sleep(0.3)
                 os.kill(pid, signal.SIGKILL)
                 killed.append(pid)
         time.sleep(0.02)
