@@ -523,10 +523,11 @@ def render_study(out: Path) -> list[Path]:
 
 def draw_figures(jobs: list[Callable[[], Path]]) -> list[Path]:
     """Run the figure-drawing ``jobs`` side by side, one background process per core
-    (:mod:`suspopt.background`; here, one after another, where that is not available);
-    their paths, in order."""
+    (:mod:`suspopt.background`; here, one after another, on one core or where that is not
+    available); their paths, in order."""
     from suspopt.background import Background, usable_cores
-    with Background(jobs=usable_cores() if len(jobs) > 1 else 0) as bg:
+    cores = usable_cores()
+    with Background(jobs=cores if len(jobs) > 1 and cores > 1 else 0) as bg:
         for k, job in enumerate(jobs):
             bg.submit(str(k), job)
         return [bg.result(str(k)) for k in range(len(jobs))]
