@@ -2,6 +2,7 @@
 serially in one process, measured side by side in one run.
 
     python benchmarks/bench_sweep.py [--tasks 16] [--workers 2] [--segments 80]
+                                     [--starts fork,spawn]
 
 The tasks: a multistart of low-fidelity optimizations of the paper's case (SPEC
 defaults: default car and road, `reference` normalization, 80 x 5 grid), Latin-hypercube
@@ -46,7 +47,10 @@ def main() -> int:
     ap.add_argument('--tasks', type=int, default=16)
     ap.add_argument('--workers', type=int, default=2)
     ap.add_argument('--segments', type=int, default=80)
+    ap.add_argument('--starts', default='fork,spawn',
+                    help='how the local workers start, comma-separated (first: the default)')
     args = ap.parse_args()
+    starts = args.starts.split(',')
     quiet = lambda msg: None  # noqa: E731
     with tempfile.TemporaryDirectory(prefix='suspopt-bench-sweep-') as tmp:
         root = Path(tmp)
@@ -64,38 +68,41 @@ def main() -> int:
         assert all(r['state'] == 'done' for r in serial), [r['error'] for r in serial]
         serial_times = [r['wall_time_s'] for r in serial]
 
-        t = time.perf_counter()
-        par = run_sweep(path, root / 'sweep', workers=args.workers, log=quiet)
-        par_wall = time.perf_counter() - t
-        assert par.exit_code == 0, par.counts
-        par_recs = _records(root / 'sweep')
-        par_times = [r['wall_time_s'] for r in par_recs]
+        sweeps = {}
+        for start in starts:
+            t = time.perf_counter()
+            par = run_sweep(path, root / f'sweep-{start}', workers=args.workers, log=quiet,
+                            worker_start=start)
+            sweeps[start] = (par, time.perf_counter() - t, _records(root / f'sweep-{start}'))
+            assert par.exit_code == 0, par.counts
 
         t = time.perf_counter()
         noop = run_sweep(path, root / 'noop', workers=args.workers, log=quiet,
-                         task_fn=noop_task)
+                         task_fn=noop_task, worker_start=starts[0])
         noop_wall = time.perf_counter() - t
 
     one = statistics.median(serial_times)
-    run_s = par.timings['run_s']
-    idle = (run_s * args.workers - sum(par_times)) / len(par_times)
-    noop_per_task = noop.timings['run_s'] / len(sweep.tasks)
     print(f'\nserial, one process: {serial_wall:.2f} s ({len(serial)} tasks; median task '
-          f'{one:.3f} s, min {min(serial_times):.3f}, max {max(serial_times):.3f})')
-    print(f'sweep, {args.workers} local workers: {par_wall:.2f} s end to end = cluster start '
-          f"{par.timings['cluster_start_s']:.2f} s + tasks {run_s:.2f} s + shutdown "
-          f"{par.timings['shutdown_s']:.2f} s + validation, records, figures "
-          f"{par_wall - run_s - par.timings['cluster_start_s'] - par.timings['shutdown_s']:.2f} s")
-    print(f'  task times in the workers: median {statistics.median(par_times):.3f} s, sum '
-          f'{sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s; each worker '
-          'imports suspopt as it starts, in the cluster start)')
-    print(f"  CPU time per task: median {statistics.median(r['cpu_time_s'] for r in serial):.3f} s "
-          f"serial, {statistics.median(r['cpu_time_s'] for r in par_recs):.3f} s in the workers "
-          '(wall above CPU: the cores were shared)')
-    print(f'throughput ratio: {serial_wall / par_wall:.2f}x end to end, '
-          f'{serial_wall / run_s:.2f}x while the tasks run (target >= 1.8x)')
-    print(f'engine overhead per task: (a) idle worker time {idle * 1e3:.1f} ms = '
-          f'{100 * idle / one:.1f} % of one optimization; (b) no-op tasks '
+          f'{one:.3f} s, min {min(serial_times):.3f}, max {max(serial_times):.3f}); CPU '
+          f"time per task: median {statistics.median(r['cpu_time_s'] for r in serial):.3f} s")
+    for start, (par, par_wall, par_recs) in sweeps.items():
+        par_times = [r['wall_time_s'] for r in par_recs]
+        run_s = par.timings['run_s']
+        idle = (run_s * args.workers - sum(par_times)) / len(par_times)
+        rest = par_wall - run_s - par.timings['cluster_start_s'] - par.timings['shutdown_s']
+        print(f'sweep, {args.workers} local workers ({start}ed): {par_wall:.2f} s end to end '
+              f"= cluster start {par.timings['cluster_start_s']:.2f} s + tasks {run_s:.2f} s "
+              f"+ shutdown {par.timings['shutdown_s']:.2f} s + validation, records, figures "
+              f'{rest:.2f} s')
+        print(f'  task times in the workers: median {statistics.median(par_times):.3f} s, '
+              f'sum {sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s); CPU time '
+              f"per task: median {statistics.median(r['cpu_time_s'] for r in par_recs):.3f} s")
+        print(f'  throughput ratio: {serial_wall / par_wall:.2f}x end to end, '
+              f'{serial_wall / run_s:.2f}x while the tasks run (target >= 1.8x)')
+        print(f'  idle worker time per task {idle * 1e3:.1f} ms = {100 * idle / one:.1f} % '
+              'of one optimization')
+    noop_per_task = noop.timings['run_s'] / len(sweep.tasks)
+    print(f'engine overhead per task, no-op tasks ({starts[0]}ed workers): '
           f'{noop_per_task * 1e3:.1f} ms per task ({noop_wall:.2f} s for '
           f'{len(sweep.tasks)} incl. cluster) = {100 * noop_per_task / one:.2f} % '
           '(target < 5 %)')

@@ -560,13 +560,20 @@ def final_step(command: str, res: dict[str, Any]) -> dict[str, Any]:
 
 def dask_setup(worker: Any) -> None:
     """Worker preload (``--preload suspopt.sweep``): Ctrl-C in a terminal reaches the
-    whole process group; workers leave the interruption to the sweep's client. The
-    modules a task needs (OpenMDAO, Dymos, the models) are imported here, as the worker
-    starts, so that no task's time includes them."""
+    whole process group; workers leave the interruption to the sweep's client. A worker
+    forked from the sweep's client drops the client's SIGTERM handler. BLAS and OpenMP
+    pools get one thread (Dask's environment variables do this for a spawned worker, too
+    late for a forked one, whose libraries are already loaded). The modules a task needs
+    (OpenMDAO, Dymos, the models) are imported here, as the worker starts, so that no
+    task's time includes them (a forked worker has them already)."""
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if signal.getsignal(signal.SIGTERM) is _sweep_sigterm:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
     except ValueError:  # not the main thread: nothing to do
         pass
+    from threadpoolctl import threadpool_limits
+    threadpool_limits(limits=1)
     import suspopt.study  # noqa: F401
 
 
@@ -910,6 +917,11 @@ class Outcome:
     timings: dict[str, float] = field(default_factory=dict)
 
 
+def _sweep_sigterm(signum, frame):
+    """The sweep client's SIGTERM: stop like Ctrl-C (cancel pending, keep finished)."""
+    raise _Terminated()
+
+
 class _Terminated(KeyboardInterrupt):
     """SIGTERM, handled like Ctrl-C."""
 
@@ -924,15 +936,23 @@ def _eta(started: float, finished_now: int, remaining: int) -> str:
 def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | None = None,
               scheduler: str | None = None, retry_failed: bool = False,
               log: Callable[[str], None] | None = None,
-              task_fn: Callable[[dict], dict] = run_task) -> Outcome:
+              task_fn: Callable[[dict], dict] = run_task,
+              worker_start: str = 'auto') -> Outcome:
     """Run (or resume) a sweep into ``out_dir``. Raises :class:`ConfigError` for bad input
-    (before anything runs); returns the :class:`Outcome` otherwise."""
+    (before anything runs); returns the :class:`Outcome` otherwise. ``worker_start``: how
+    a local cluster starts its workers: ``fork`` (from this process, suspopt imported),
+    ``spawn`` (a fresh interpreter each, Dask's default) or ``auto`` (fork on Linux)."""
     t0 = time.perf_counter()
     say = log or (lambda msg: print(f'[sweep] {msg}', file=sys.stderr, flush=True))
     if workers is not None and workers < 1:
         raise ConfigError(f'--workers: must be >= 1, got {workers}')
     if workers is not None and scheduler:
         raise ConfigError('--workers: not with --scheduler (the cluster has its workers)')
+    if worker_start not in ('auto', 'fork', 'spawn'):
+        raise ConfigError(f"worker_start: expected 'auto', 'fork' or 'spawn', got "
+                          f'{worker_start!r}')
+    if worker_start == 'auto':
+        worker_start = 'fork' if sys.platform.startswith('linux') else 'spawn'
     if scheduler is not None and not re.match(r'^[a-z+]+://\S+$', scheduler):
         raise ConfigError(f'--scheduler: expected an address like tcp://HOST:PORT, '
                           f'got {scheduler!r}')
@@ -955,7 +975,7 @@ def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | Non
         if todo:
             try:
                 _run_on_dask(sweep, todo, out, records, outcome, workers, scheduler,
-                             say, task_fn)
+                             say, task_fn, worker_start)
             finally:
                 write_summary(out, sweep, records)
                 _figures(out, sweep, records, say)
@@ -990,7 +1010,7 @@ def _figures(out: Path, sweep: Sweep, records: dict[str, dict], say) -> None:
 
 
 def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, retries: int,
-                   say: Callable[[str], None]):
+                   say: Callable[[str], None], worker_start: str = 'spawn'):
     """A Dask client (and the LocalCluster it owns, or None for an external scheduler)."""
     import logging
 
@@ -1012,11 +1032,21 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
     # (benchmarks/bench_sweep.py measures it): the statistical profiler sampling the task's
     # stack every 10 ms, and the nanny's MALLOC_TRIM_THRESHOLD_ (every large NumPy
     # temporary mapped and unmapped afresh); both off, the BLAS single-thread settings kept.
+    # The event-loop health tick (every 20 ms) and the system monitor (every 0.5 s) run in
+    # the client's process too, beside the workers, on a core they need: once a second and
+    # every 5 s. Forked workers start from this process, which has imported what a task
+    # needs (the imports are most of a spawned worker's start).
     environ = {k: v for k, v in dask.config.get('distributed.nanny.pre-spawn-environ').items()
                if k != 'MALLOC_TRIM_THRESHOLD_'}
-    with dask.config.set({'distributed.scheduler.allowed-failures': retries,
-                          'distributed.worker.profile.enabled': False,
-                          'distributed.nanny.pre-spawn-environ': environ}):
+    settings = {'distributed.scheduler.allowed-failures': retries,
+                'distributed.worker.profile.enabled': False,
+                'distributed.nanny.pre-spawn-environ': environ,
+                'distributed.admin.tick.interval': '1s',
+                'distributed.admin.system-monitor.interval': '5s'}
+    if worker_start == 'fork':
+        import suspopt.study  # noqa: F401  (inherited by the forked workers)
+    settings['distributed.worker.multiprocessing-method'] = worker_start
+    with dask.config.set(settings):
         try:
             cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1,
                                    dashboard_address=None, silence_logs=logging.CRITICAL,
@@ -1024,7 +1054,7 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
         except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
             raise SuspoptError(f'cannot start a local Dask cluster: {err}') from None
         client = Client(cluster)
-    say(f'local cluster: {n} worker process(es), one thread each')
+    say(f'local cluster: {n} worker process(es), one thread each ({worker_start}ed)')
     return client, cluster
 
 
@@ -1034,7 +1064,8 @@ def _allowed_failures(dask_scheduler) -> int:
 
 def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, dict],
                  outcome: Outcome, workers: int | None, scheduler: str | None,
-                 say: Callable[[str], None], task_fn: Callable[[dict], dict]) -> None:
+                 say: Callable[[str], None], task_fn: Callable[[dict], dict],
+                 worker_start: str = 'spawn') -> None:
     from distributed import KilledWorker
     by_name = {t.name: t for t in todo}
     events: queue.Queue = queue.Queue()
@@ -1047,9 +1078,7 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
     topic = f'suspopt-sweep-{token}'
     old_term = None
     if hasattr(signal, 'SIGTERM') and _main_thread():
-        def _term(signum, frame):
-            raise _Terminated()
-        old_term = signal.signal(signal.SIGTERM, _term)
+        old_term = signal.signal(signal.SIGTERM, _sweep_sigterm)
     total = len(sweep.tasks)
     last_line = ['']
 
@@ -1065,7 +1094,8 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
     t_run = time.perf_counter()
     try:
         t_cl = time.perf_counter()
-        client, cluster = _start_cluster(workers, scheduler, len(todo), sweep.retries, say)
+        client, cluster = _start_cluster(workers, scheduler, len(todo), sweep.retries, say,
+                                         worker_start)
         outcome.timings['cluster_start_s'] = time.perf_counter() - t_cl
         client.subscribe_topic(topic, lambda ev: events.put(('event', ev[1])))
         t_run = time.perf_counter()

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from suspopt.errors import ConfigError
 from suspopt.sweep import DirectoryLock, distinct_optima, load_sweep, run_sweep, run_task
 
 DASK = str(Path(sys.executable).parent / 'dask')
@@ -114,6 +115,56 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
     assert len(recs) == 5 and all(r['state'] == 'done' for r in recs.values())
     meta = json.loads((out / 'sweep.json').read_text())
     assert meta['counts']['done'] == 5 and meta['counts']['pending'] == 5
+
+
+@pytest.mark.slow
+def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path):
+    """A local cluster forks its workers on Linux (spawn elsewhere): both ways, the same
+    optima bit for bit."""
+    path = _files(tmp_path, PRODUCT.replace('road.seed = [0, 1]', 'road.seed = [0]'))
+    logs: dict[str, list[str]] = {'fork': [], 'spawn': []}
+    for start in logs:
+        outcome = run_sweep(path, tmp_path / start, workers=2, log=logs[start].append,
+                            worker_start=start)
+        assert outcome.exit_code == 0 and outcome.counts['done'] == 2
+        assert f'local cluster: 2 worker process(es), one thread each ({start}ed)' \
+            in logs[start]
+    objectives = {start: sorted((n, r['result']['objective'])
+                                for n, r in _records(tmp_path / start).items())
+                  for start in logs}
+    assert objectives['fork'] == objectives['spawn']
+    with pytest.raises(ConfigError, match="worker_start: expected 'auto', 'fork' or 'spawn'"):
+        run_sweep(path, tmp_path / 'x', worker_start='forkserver')
+
+
+def _setup_in_forked_child(queue) -> None:
+    from threadpoolctl import threadpool_info
+
+    from suspopt.sweep import dask_setup
+    dask_setup(None)
+    queue.put((signal.getsignal(signal.SIGTERM) == signal.SIG_DFL,
+               signal.getsignal(signal.SIGINT) == signal.SIG_IGN,
+               sorted({p['num_threads'] for p in threadpool_info()})))
+
+
+def test_worker_setup_drops_the_clients_sigterm_and_limits_blas_threads():
+    """A worker forked from the sweep's client inherits its SIGTERM handler (which raises
+    in the client) and its BLAS pools: the preload resets one, limits the other."""
+    from threadpoolctl import threadpool_limits
+
+    from suspopt.sweep import _sweep_sigterm
+    ctx = mp.get_context('fork')
+    queue = ctx.Queue()
+    old = signal.signal(signal.SIGTERM, _sweep_sigterm)
+    try:
+        with threadpool_limits(limits=2):  # a client whose BLAS runs two threads
+            proc = ctx.Process(target=_setup_in_forked_child, args=(queue,))
+            proc.start()
+        term_default, int_ignored, threads = queue.get(timeout=60)
+        proc.join(timeout=30)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    assert term_default and int_ignored and threads == [1]
 
 
 def _interrupt(path: Path, out: Path, when) -> None:
