@@ -47,6 +47,7 @@ from __future__ import annotations
 import csv
 import difflib
 import fcntl
+import gc
 import hashlib
 import io
 import itertools
@@ -1047,12 +1048,17 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
         import suspopt.study  # noqa: F401  (inherited by the forked workers)
     settings['distributed.worker.multiprocessing-method'] = worker_start
     with dask.config.set(settings):
+        if worker_start == 'fork':  # the children's garbage collector leaves what this
+            gc.freeze()             # process had alone (no copy-on-write of its pages)
         try:
             cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1,
                                    dashboard_address=None, silence_logs=logging.CRITICAL,
                                    preload=['suspopt.sweep'])
         except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
             raise SuspoptError(f'cannot start a local Dask cluster: {err}') from None
+        finally:
+            if worker_start == 'fork':
+                gc.unfreeze()
         client = Client(cluster)
     say(f'local cluster: {n} worker process(es), one thread each ({worker_start}ed)')
     return client, cluster
