@@ -25,7 +25,8 @@ start, so a suspopt version whose study defaults differ also refuses an old dire
 One sweep per directory at a time (``.lock``, an advisory ``flock``).
 
 Dask: a ``LocalCluster`` of one single-threaded worker process per core (or
-``workers``), or an existing scheduler (``scheduler='tcp://host:port'``). At most as many
+``workers``; on Linux forked from the client, which has imported suspopt, so they start
+in a fraction of a second instead of importing it each), or an existing scheduler (``scheduler='tcp://host:port'``). At most as many
 tasks are submitted as the cluster has worker threads, so a worker holds only the task it
 runs. A worker process that dies mid-task (killed, out of memory) is noticed by the
 scheduler, which reruns the task on another worker; the scheduler's
@@ -1105,7 +1106,8 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
         outcome.timings['cluster_start_s'] = time.perf_counter() - t_cl
         client.subscribe_topic(topic, lambda ev: events.put(('event', ev[1])))
         t_run = time.perf_counter()
-        while pending or in_flight:
+
+        def refill() -> None:  # one task per worker thread (the cluster may have grown)
             slots = max(1, sum(client.nthreads().values())) - len(in_flight)
             while pending and slots > 0:
                 t = pending.popleft()
@@ -1114,9 +1116,13 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                 fut.add_done_callback(lambda f, n=t.name: events.put(('done', (n, f))))
                 in_flight[t.name] = fut
                 slots -= 1
+
+        refill()
+        while pending or in_flight:
             try:
                 kind, msg = events.get(timeout=2.0)
             except queue.Empty:
+                refill()
                 continue
             if kind == 'event' and msg.get('op') == 'start' and msg['task'] in in_flight:
                 name = msg['task']
@@ -1133,6 +1139,7 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                     continue
                 del in_flight[name]
                 running.discard(name)
+                refill()  # the freed worker's next task first, then this one's records
                 rec = _collect(fut, by_name[name], KilledWorker)
                 if rec is None:  # cancelled from elsewhere, or interrupted: not a result
                     say(f'{name}: cancelled; it stays pending')
