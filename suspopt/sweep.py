@@ -1126,7 +1126,8 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                 continue
             if kind == 'event' and msg.get('op') == 'start' and msg['task'] in in_flight:
                 name = msg['task']
-                attempts[name] = attempts.get(name, 0) + 1
+                attempts[name] = max(attempts.get(name, 0) + 1,
+                                     _deaths(client, in_flight[name].key) + 1)
                 running.add(name)
                 if attempts[name] > 1:
                     outcome.retried.append(name)
@@ -1144,7 +1145,9 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                 if rec is None:  # cancelled from elsewhere, or interrupted: not a result
                     say(f'{name}: cancelled; it stays pending')
                     continue
-                rec['attempts'] = max(attempts.get(name, 1), 1)
+                # the scheduler counts the deaths of a task's workers itself; a worker
+                # that dies before the task's start event left it is counted there only
+                rec['attempts'] = max(attempts.get(name, 1), _deaths(client, fut.key) + 1)
                 rec['task'] = by_name[name].describe()
                 records[name] = rec
                 outcome.ran += 1
@@ -1166,6 +1169,17 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
         t_down = time.perf_counter()
         _shutdown(client, cluster, list(in_flight.values()))
         outcome.timings['shutdown_s'] = time.perf_counter() - t_down
+
+
+def _deaths(client, key: str) -> int:
+    """How many workers died while running task ``key`` (the scheduler's ``suspicious``
+    count; 0 if the scheduler does not know the task). A lambda, so that an external
+    scheduler needs no suspopt to run it."""
+    try:
+        return int(client.run_on_scheduler(
+            lambda dask_scheduler, k=key: getattr(dask_scheduler.tasks.get(k), 'suspicious', 0)))
+    except Exception:  # noqa: BLE001 - the count is a detail of the record, never fatal
+        return 0
 
 
 def _collect(fut, task: Task, killed_type) -> dict[str, Any] | None:

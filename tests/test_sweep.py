@@ -340,11 +340,14 @@ def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cl
 
 
 
-def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
+def _kill_running_worker(client, out: Path, kills: int, runner,
+                         delay: float = 0.3) -> list[int]:
     """SIGKILL the worker process running the sweep's only task, ``kills`` times: first
     once the task has started (its output directory exists), then each rerun once it is
-    on a live worker. Which worker: the scheduler's ``processing``; its pid: asked of that
-    worker through the client (the scheduler's identity of a worker has no pid)."""
+    on a live worker, ``delay`` seconds into it (0: the task's start event may not have
+    left the worker; the scheduler's own count of deaths says it was an attempt). Which
+    worker: the scheduler's ``processing``; its pid: asked of that worker through the
+    client (the scheduler's identity of a worker has no pid)."""
     killed: list[int] = []
     deadline = time.monotonic() + 90
     while len(killed) < kills and time.monotonic() < deadline and runner.is_alive():
@@ -355,9 +358,7 @@ def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
             except (KeyError, OSError):
                 pid = None
             if isinstance(pid, int) and pid not in killed:
-                # the task gets going (a task takes > 1 s): its start event, which the
-                # attempt count is made of, has left the worker
-                time.sleep(0.3)
+                time.sleep(delay)
                 os.kill(pid, signal.SIGKILL)
                 killed.append(pid)
         time.sleep(0.02)
@@ -378,7 +379,9 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
     runner = threading.Thread(target=lambda: done.update(outcome=run_sweep(
         path, out, scheduler=address, log=lines.append)))
     runner.start()
-    killed = _kill_running_worker(client, out, kills, runner)
+    # one kill at once (before the start event may have left the worker), two each 0.3 s
+    # into the task
+    killed = _kill_running_worker(client, out, kills, runner, delay=0.0 if kills == 1 else 0.3)
     runner.join(timeout=120)
     err = '\n'.join(lines)
     assert len(killed) == kills, err
@@ -393,6 +396,29 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
             'KilledWorker: its worker process died on each of 2 attempts')
         assert f"failed: {rec['name']}: KilledWorker" in err
     client.wait_for_workers(2, timeout=60)  # the nannies restarted them
+
+
+@pytest.mark.slow
+def test_the_scheduler_counts_a_tasks_dead_workers(cluster):
+    """A worker killed before a task could say it started still counts as an attempt:
+    the record's count comes from the scheduler's own (``_deaths``)."""
+    from suspopt.sweep import _deaths
+    address, client = cluster
+    fut = client.submit(time.sleep, 4, pure=False)  # short: a running rerun holds up
+    # the cluster's shutdown (a cancelled task still runs to its end in its thread)
+    try:
+        deadline = time.monotonic() + 30
+        while not any(client.processing().values()) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        busy = [w for w, keys in client.processing().items() if keys]
+        assert _deaths(client, fut.key) == 0
+        os.kill(client.run(os.getpid, workers=busy)[busy[0]], signal.SIGKILL)
+        while _deaths(client, fut.key) == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert _deaths(client, fut.key) == 1 and _deaths(client, 'no-such-task') == 0
+    finally:
+        client.cancel(fut, force=True)
+    client.wait_for_workers(2, timeout=60)
 
 
 # --------------------------------------------------------------------------- coloring cache
