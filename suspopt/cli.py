@@ -377,7 +377,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from suspopt.sweep import run_sweep
     log = (lambda msg: None) if args.quiet else None
     outcome = run_sweep(args.file, args.out, workers=args.workers, scheduler=args.scheduler,
-                        retry_failed=args.retry_failed, log=log)
+                        retry_failed=args.retry_failed, log=log,
+                        worker_start=args.worker_start)
     return outcome.exit_code
 
 
@@ -538,6 +539,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help='local worker processes (default: one per core)')
     p.add_argument('--scheduler', metavar='tcp://HOST:PORT',
                    help='run on an existing Dask cluster instead of a local one')
+    p.add_argument('--worker-start', choices=('auto', 'fork', 'spawn'), default='auto',
+                   dest='worker_start',
+                   help='how local workers start: forked from this process (auto on Linux; '
+                        'suspopt already imported) or spawned (import it each)')
     p.add_argument('--retry-failed', action='store_true', dest='retry_failed',
                    help='when resuming, rerun the tasks that failed')
     p.add_argument('--quiet', action='store_true', help='no progress lines')

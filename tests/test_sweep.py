@@ -118,18 +118,20 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
 
 
 @pytest.mark.slow
-def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path):
+def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path, capsys):
     """A local cluster forks its workers on Linux (spawn elsewhere): both ways, the same
-    optima bit for bit."""
+    optima bit for bit (spawned: through the command line's --worker-start)."""
     path = _files(tmp_path, PRODUCT.replace('road.seed = [0, 1]', 'road.seed = [0]')
                   .replace('[10.0, 15.0]', '[12.0]'))
-    logs: dict[str, list[str]] = {'fork': [], 'spawn': []}
-    for start in logs:
-        outcome = run_sweep(path, tmp_path / start, workers=1, log=logs[start].append,
-                            worker_start=start)
-        assert outcome.exit_code == 0 and outcome.counts['done'] == 1
-        assert f'local cluster: 1 worker process(es), one thread each ({start}ed)' \
-            in logs[start]
+    fork_log: list[str] = []
+    outcome = run_sweep(path, tmp_path / 'fork', workers=1, log=fork_log.append)
+    assert outcome.exit_code == 0 and outcome.counts['done'] == 1
+    assert 'local cluster: 1 worker process(es), one thread each (forked)' in fork_log
+    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'spawn'), '--workers', '1',
+                      '--worker-start', 'spawn'], capsys)
+    assert code == 0 and 'local cluster: 1 worker process(es), one thread each (spawned)' \
+        in err, err
+    logs = ('fork', 'spawn')
     objectives = {start: sorted((n, r['result']['objective'])
                                 for n, r in _records(tmp_path / start).items())
                   for start in logs}
