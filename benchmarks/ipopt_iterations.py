@@ -1,0 +1,80 @@
+"""IPOPT iteration counts of the benchmark cases under a few IPOPT option sets.
+
+    python benchmarks/ipopt_iterations.py [--options default,hist3,...] [--cases paper,...]
+
+Iteration counts are deterministic (the same on a loaded machine), so this answers
+"would another IPOPT setting need fewer iterations?" without timing noise. Cases
+(low fidelity, from the initial design, cached coloring): the paper's half car; the half
+car on the full car's ISO 8608 road and grid (``bench_full_car.py``'s pair); the default
+full car; the robust NLP of ``examples/robust.toml`` and each of its scenarios alone
+(``bench_robust.py``'s comparison). Prints one row per case and option set: iterations,
+objective, solve time.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _common import git_revision, machine, timed_optimize  # noqa: E402
+
+from suspopt.config import StudyConfig, config_from_dict, full_car_defaults, load_config  # noqa: E402
+from suspopt.robust import single_scenario  # noqa: E402
+from suspopt.study import resolve_scales  # noqa: E402
+from suspopt.transcription.grid import auto_segments  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+OPTIONS = {
+    'default': {},
+    'hist3': {'limited_memory_max_history': 3},
+    'hist12': {'limited_memory_max_history': 12},
+    'adaptive': {'mu_strategy': 'adaptive'},
+    'scalar2': {'limited_memory_initialization': 'scalar2'},
+}
+
+
+def cases() -> dict:
+    full = full_car_defaults()
+    seg = auto_segments(full, full.scenarios()[0], full.transcription.order)
+    full = config_from_dict({**full.to_dict(), 'transcription': {'segments': seg}})
+    half_iso = config_from_dict({**StudyConfig().to_dict(), 'road': dict(full.road),
+                                 'maneuver': full.maneuver.__dict__,
+                                 'transcription': {'segments': seg}})
+    robust = load_config(ROOT / 'examples' / 'robust.toml')
+    out = {'paper': StudyConfig(), 'half_iso': half_iso, 'full_car': full, 'robust': robust}
+    out.update({f'robust[{i}]': single_scenario(robust, i)
+                for i in range(len(robust.scenarios()))})
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument('--options', default='default,hist3,hist12,adaptive',
+                    help=f'comma-separated, of {", ".join(OPTIONS)}')
+    ap.add_argument('--cases', default=None, help='comma-separated case names (default all)')
+    args = ap.parse_args()
+    chosen = args.options.split(',')
+    unknown = sorted(set(chosen) - set(OPTIONS))
+    if unknown:
+        raise SystemExit(f'--options: unknown {unknown}; known: {", ".join(OPTIONS)}')
+    all_cases = cases()
+    names = args.cases.split(',') if args.cases else list(all_cases)
+    print(f'# IPOPT iterations by option set — {machine()}, suspopt {git_revision()}\n')
+    print('| case | options | IPOPT iterations | f | solve [s] |\n|---|---|---|---|---|')
+    for name in names:
+        cfg = all_cases[name]
+        scales = resolve_scales(cfg)
+        for opt in chosen:
+            c = dataclasses.replace(cfg, optimizer=dataclasses.replace(
+                cfg.optimizer, options={**cfg.optimizer.options, **OPTIONS[opt]}))
+            r = timed_optimize(c, 'low', scales, cfg.design.initial())
+            r.pop('problem').cleanup()
+            flag = '' if r['success'] else ' (not converged)'
+            print(f"| {name} | {opt} | {r['iterations']}{flag} | {r['f']:.10g} | "
+                  f"{r['solve']:.2f} |", flush=True)
+
+
+if __name__ == '__main__':
+    main()
