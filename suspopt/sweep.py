@@ -26,13 +26,15 @@ One sweep per directory at a time (``.lock``, an advisory ``flock``).
 
 Dask: a ``LocalCluster`` of one single-threaded worker process per core (or
 ``workers``; on Linux forked from the client, which has imported suspopt, so they start
-in a fraction of a second instead of importing it each), or an existing scheduler (``scheduler='tcp://host:port'``). At most as many
-tasks are submitted as the cluster has worker threads, so a worker holds only the task it
-runs. A worker process that dies mid-task (killed, out of memory) is noticed by the
-scheduler, which reruns the task on another worker; the scheduler's
-``distributed.scheduler.allowed-failures`` is how many deaths a task may survive (set to
-``retries`` for a local cluster; an external scheduler has its own, default 3), after
-which the task errs with ``KilledWorker`` and is recorded as failed. (Dask's ``retries=``
+in a fraction of a second instead of importing it each), or an existing scheduler
+(``scheduler='tcp://host:port'``). At most as many tasks are submitted as the cluster has
+worker threads, so a worker holds only the task it runs. A worker process that dies
+mid-task (killed, out of memory) is noticed by the scheduler, which reruns the task on
+another worker (the record's ``attempts`` is the scheduler's own count of deaths plus
+one); the scheduler's ``distributed.scheduler.allowed-failures`` is how many deaths a
+task may survive (set to ``retries`` for a local cluster; an external scheduler has its
+own, default 3), after which the task errs with ``KilledWorker`` and is recorded as
+failed. (Dask's ``retries=``
 of ``submit`` is for tasks that *raise*; a task here never raises: its failure is its
 result.) Ctrl-C / SIGTERM cancel what is pending, close client and cluster, keep what
 finished. On an external cluster a task already running finishes on its worker (Dask
@@ -1012,7 +1014,7 @@ def _figures(out: Path, sweep: Sweep, records: dict[str, dict], say) -> None:
 
 
 def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, retries: int,
-                   say: Callable[[str], None], worker_start: str = 'spawn'):
+                   say: Callable[[str], None], worker_start: str):
     """A Dask client (and the LocalCluster it owns, or None for an external scheduler)."""
     import logging
 
@@ -1072,7 +1074,7 @@ def _allowed_failures(dask_scheduler) -> int:
 def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, dict],
                  outcome: Outcome, workers: int | None, scheduler: str | None,
                  say: Callable[[str], None], task_fn: Callable[[dict], dict],
-                 worker_start: str = 'spawn') -> None:
+                 worker_start: str) -> None:
     from distributed import KilledWorker
     by_name = {t.name: t for t in todo}
     events: queue.Queue = queue.Queue()
