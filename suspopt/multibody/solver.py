@@ -123,6 +123,8 @@ class PlanarMultibodySolver:
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
         self._inv_mass = 1.0 / self.mass_diag
+        #: (C_q, C_q M⁻¹, C_q M⁻¹ C_qᵀ) of the last read-only C_q (see :meth:`_schur`)
+        self._last_schur: tuple | None = None
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
         # markers (on bodies or on the ground)
@@ -540,9 +542,8 @@ class PlanarMultibodySolver:
             rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
                      - beta**2 * self.constraints(q, motion))
         if method == 'schur':
-            CMi = Cq * self._inv_mass
-            lam = _batched_solve(CMi @ Cq.transpose(0, 2, 1),
-                                 np.einsum('nij,nj->ni', CMi, Q) - rhs_c,
+            CMi, S = self._schur(Cq)
+            lam = _batched_solve(S, np.einsum('nij,nj->ni', CMi, Q) - rhs_c,
                                  'augmented system (eq. 11)')
             return (Q - np.einsum('nji,nj->ni', Cq, lam)) / self.mass_diag, lam
         if method != 'dense':
@@ -554,6 +555,20 @@ class PlanarMultibodySolver:
         b = np.concatenate([Q, rhs_c], axis=1)
         x = _batched_solve(A, b, 'augmented system (eq. 11)')
         return x[:, :n], x[:, n:]
+
+    def _schur(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``C_q M⁻¹`` and ``C_q M⁻¹ C_qᵀ`` (N, m, n), (N, m, m). Kept for the last
+        read-only ``C_q`` (a remembered pose's, which cannot change in place): the finite
+        differences of the loads, rates and settings query the same pose again and again,
+        and get these bit for bit as computed afresh."""
+        last = self._last_schur
+        if last is not None and last[0] is Cq:
+            return last[1], last[2]
+        CMi = Cq * self._inv_mass
+        S = CMi @ Cq.transpose(0, 2, 1)
+        if not Cq.flags.writeable:
+            self._last_schur = (Cq, CMi, S)
+        return CMi, S
 
     def reactions(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """What every joint (the mechanism's, then the fixed bodies' welds, order

@@ -167,6 +167,8 @@ class SuspensionModule:
         self._last_residual: tuple | None = None
         #: and its (q, the joints' pool at q) (see PlanarMultibodySolver._gamma_all)
         self._last_pool: tuple | None = None
+        #: (q, q̇, γ) of the last dynamics() at a read-only (remembered) state
+        self._last_gamma: tuple | None = None
 
     @staticmethod
     def _remember(memory: OrderedDict, key: bytes, value, size: int) -> None:
@@ -336,14 +338,26 @@ class SuspensionModule:
             # solve_augmented(q, qd, Q, Cq=state.Cq)
             s.calls['augmented'] += 1
             Cq = s.constraint_jacobian(q) if state.Cq is None else state.Cq
-            last = self._last_pool
-            pool = last[1] if last is not None and last[0] is q else None
-            state.qdd, state.lam = s._augmented(
-                q, qd, Q, Cq, s._gamma_all(q, qd, s._drives(None, N), qe, qde, pool))
+            state.qdd, state.lam = s._augmented(q, qd, Q, Cq, self._gamma(q, qd, qe, qde))
             F_S = -self._spring_force(qe, qde, values, parts) * e_z
         finally:
             self.time_s += time.perf_counter() - t0
         return state.qdd[:, s.ind[0]], F_S, s.joint_reactions(state.lam, q)
+
+    def _gamma(self, q, qd, qe, qde) -> np.ndarray:
+        """γ of eq. 11 at a state of the ground-mounted module; a remembered (read-only)
+        state's is kept, since the finite differences of the loads and settings query
+        the same state again and again (bit for bit as computed afresh)."""
+        last = self._last_gamma
+        if last is not None and last[0] is q and last[1] is qd:
+            return last[2]
+        s = self.solver
+        pool = self._last_pool[1] if self._last_pool is not None and \
+            self._last_pool[0] is q else None
+        gamma = s._gamma_all(q, qd, s._drives(None, q.shape[0]), qe, qde, pool)
+        if not (q.flags.writeable or qd.flags.writeable):
+            self._last_gamma = (q, qd, gamma)
+        return gamma
 
     def mount_response(self, kin: ModuleKinematics, k_S: np.ndarray, c_S: np.ndarray,
                        F_T: np.ndarray, rotation: bool = False,
