@@ -111,6 +111,22 @@ def test_dynamics_at_remembered_states_equal_fresh_modules_bit_for_bit(mechanism
             same(a, b)
 
 
+def test_the_kept_schur_complement_follows_a_view_whose_base_changes():
+    """A read-only view of a writable array can still change: it is not kept by identity
+    (``frozen``), so the Schur complement follows the change; a frozen C_q's is kept."""
+    from suspopt.multibody.solver import freeze, frozen
+    s = SuspensionModule('double_wishbone').solver
+    base = np.random.default_rng(7).random((2, s.m * s.n))
+    Cq = base.reshape(2, s.m, s.n)
+    Cq.flags.writeable = False
+    assert not frozen(Cq)
+    first = s._schur(Cq)[1].copy()
+    base *= 2.0
+    same(s._schur(Cq)[1], 4.0 * first)
+    kept = freeze(Cq)
+    assert frozen(kept) and s._schur(kept)[1] is s._schur(kept)[1]
+
+
 @pytest.mark.parametrize('mount', ['ground', 'chassis'])
 def test_constraint_residual_from_the_last_kinematics(mount):
     mod = SuspensionModule('double_wishbone', mount=mount)

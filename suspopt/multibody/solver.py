@@ -566,8 +566,8 @@ class PlanarMultibodySolver:
             return last[1], last[2]
         CMi = Cq * self._inv_mass
         S = CMi @ Cq.transpose(0, 2, 1)
-        if not Cq.flags.writeable:
-            self._last_schur = (Cq, CMi, S)
+        if frozen(Cq):
+            self._last_schur = (Cq, freeze(CMi), freeze(S))
         return CMi, S
 
     def reactions(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -885,6 +885,26 @@ try:  # the gufunc behind np.linalg.solve, without its argument handling (small 
                 return _solve(A, b, signature='dd->d')
 except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
     _lapack_solve = np.linalg.solve
+
+
+def freeze(a: np.ndarray) -> np.ndarray:
+    """Make ``a`` and every array it is a view of read-only (its values are kept, so
+    nothing may change them); ``a``."""
+    b = a
+    while isinstance(b, np.ndarray):
+        b.flags.writeable = False
+        b = b.base
+    return a
+
+
+def frozen(a: np.ndarray) -> bool:
+    """Whether ``a`` cannot change: read-only, and so is every array it is a view of
+    (what a value kept by the identity of its input needs)."""
+    while a is not None:
+        if a.flags.writeable:
+            return False
+        a = a.base if isinstance(a.base, np.ndarray) else None
+    return True
 
 
 def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:

@@ -57,7 +57,8 @@ from suspopt.errors import ConfigError
 from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
 from suspopt.multibody.elements.base import cross, perp, rot_apply
 from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
-from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver
+from suspopt.multibody.solver import (MultibodyState, PlanarMultibodySolver, freeze,
+                                      frozen)
 
 MOUNTS = ('ground', 'chassis')
 #: the entries of a chassis-mounted module's response (:meth:`SuspensionModule.
@@ -200,7 +201,7 @@ class SuspensionModule:
         pose = (q, Cq, q_W, arm_x, res, pool)
         for a in pose:
             if a is not None:
-                a.flags.writeable = False
+                freeze(a)
         self._remember(self._poses, key, pose, self.memory)
         return pose
 
@@ -237,7 +238,7 @@ class SuspensionModule:
                 q, Cq, q_W, arm_x, res, pool = self._pose(z_W, guess, pose, motion)
                 qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity,
                                   motion=motion)
-                qd.flags.writeable = False
+                freeze(qd)
                 if self._wheel_coords is None:
                     qd_W = np.zeros(q.shape[0])
                 else:  # (r + B u φ)_z of the wheel marker
@@ -355,8 +356,8 @@ class SuspensionModule:
         pool = self._last_pool[1] if self._last_pool is not None and \
             self._last_pool[0] is q else None
         gamma = s._gamma_all(q, qd, s._drives(None, q.shape[0]), qe, qde, pool)
-        if not (q.flags.writeable or qd.flags.writeable):
-            self._last_gamma = (q, qd, gamma)
+        if frozen(q) and frozen(qd):
+            self._last_gamma = (q, qd, freeze(gamma))
         return gamma
 
     def mount_response(self, kin: ModuleKinematics, k_S: np.ndarray, c_S: np.ndarray,
