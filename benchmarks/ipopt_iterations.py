@@ -33,6 +33,9 @@ OPTIONS = {
     'hist12': {'limited_memory_max_history': 12},
     'adaptive': {'mu_strategy': 'adaptive'},
     'scalar2': {'limited_memory_initialization': 'scalar2'},
+    'obj0.25': {'obj_scaling_factor': 0.25},
+    'extended': {'limited_memory_aug_solver': 'extended'},
+    'sherman': {'limited_memory_aug_solver': 'sherman-morrison'},
 }
 
 

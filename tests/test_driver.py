@@ -119,3 +119,18 @@ def test_write_json_is_atomic(tmp_path):
         write_json(path, {'a': 2, 'b': object()})
     assert json.loads(path.read_text()) == {'a': 1}
     assert [p.name for p in tmp_path.iterdir()] == ['result.json']
+
+
+@pytest.mark.parametrize('given, used', [({}, 'extended'),
+                                         ({'limited_memory_aug_solver': 'sherman-morrison'},
+                                          'sherman-morrison')])
+def test_limited_memory_update_in_the_augmented_system_unless_the_study_says(tmp_path, given,
+                                                                           used):
+    """IPOPT runs with the driver's ``limited_memory_aug_solver = extended`` (read back
+    from IPOPT's own list of the options it was given); a study's option overrides it."""
+    log = tmp_path / 'ipopt.out'
+    p = _problem(opt_settings={'output_file': str(log), 'file_print_level': 5,
+                               'print_user_options': 'yes', **given})
+    assert p.run()
+    lines = [ln.split() for ln in log.read_text().splitlines()]
+    assert ['limited_memory_aug_solver', '=', used] in [ln[:3] for ln in lines]

@@ -44,6 +44,23 @@ def test_two_identical_scenarios_reduce_to_the_single_problem():
     assert r2['objective'] == pytest.approx(2.0 * r1['objective'], rel=1e-7)
 
 
+def test_ipopt_sees_the_weighted_mean_and_reports_the_weighted_sum():
+    """The NLP's objective is scaled by 1/Σ w_s (one scenario's magnitude for IPOPT),
+    while the result, the history and the progress report Σ w_s f_s."""
+    cfg = _config([{'name': 'a', 'weight': 1.0}, {'name': 'b', 'weight': 3.0, 'speed': 14.0}])
+    scales = resolve_scales(cfg)
+    vp = VehicleProblem(cfg, 'low', scales)
+    (meta,) = vp.problem.model.get_objectives().values()
+    assert meta['total_scaler'] == pytest.approx(0.25)
+    seen = []
+    r = optimize(cfg, 'low', scales=scales, progress=seen.append)
+    assert r['success']
+    assert r['objective'] == pytest.approx(combine(cfg, [s['objective'] for s in r['scenarios']]),
+                                           rel=1e-12)
+    assert r['history'][-1]['objective'] == pytest.approx(r['objective'], rel=1e-7)
+    assert seen and seen[-1].objective == pytest.approx(r['objective'], rel=1e-7)
+
+
 @pytest.mark.slow
 def test_sum_optimum_is_stationary_for_separately_built_problems(sum_optimum):
     """Each scenario's f_s evaluated in its own single-scenario problem (its own

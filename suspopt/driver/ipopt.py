@@ -12,7 +12,9 @@ it reads the NLP the model declares (design variables, constraints, objective, t
   (:mod:`suspopt.driver.sparsity`); its values come from one forward solve per color,
   gathered straight into IPOPT's nonzeros (no dense (m, n) array), driver-scaled there;
 * the objective gradient comes from one reverse solve on the same linearization;
-* the Hessian is approximated by IPOPT (limited-memory BFGS);
+* the Hessian is approximated by IPOPT (limited-memory BFGS), its low-rank update kept
+  in IPOPT's augmented system (``limited_memory_aug_solver = extended``, see
+  :data:`LIMITED_MEMORY_OPTIONS`);
 * a model evaluation that fails (``AnalysisError``, non-finite values) is reported to IPOPT
   as an evaluation error, so IPOPT backtracks instead of aborting;
 * every accepted iteration is reported to an optional ``progress`` callable
@@ -218,6 +220,16 @@ def _output_file_problems(name: str, value: Any) -> list[str]:
     return []
 
 
+#: IPOPT options the driver sets with the limited-memory Hessian (a study's
+#: ``optimizer.options`` override them). ``extended`` puts the quasi-Newton update's
+#: low-rank terms into the augmented system that MUMPS factorizes; IPOPT's default
+#: (``sherman-morrison``) keeps them out of it and pays extra back-solves with it instead,
+#: whose cost grows faster than the NLP here. The same steps either way (the iterates
+#: agree to rounding); ``benchmarks/ipopt_iterations.py --options sherman,extended``
+#: measures both.
+LIMITED_MEMORY_OPTIONS: dict[str, Any] = {'limited_memory_aug_solver': 'extended'}
+
+
 @dataclass
 class IterationInfo:
     """One accepted IPOPT iteration, as reported to the progress callback."""
@@ -251,6 +263,8 @@ class IpoptDriver:
         self.totals_method = totals
         self.options = {'max_iter': max_iter, 'tol': tol, 'print_level': print_level,
                         'hessian_approximation': hessian_approximation}
+        if hessian_approximation == 'limited-memory':
+            self.options.update(LIMITED_MEMORY_OPTIONS)
         self.progress = progress
         self.watch = list(watch)
         self.coloring = coloring
@@ -400,7 +414,8 @@ class IpoptDriver:
 
     def intermediate(self, alg_mod, iter_count, obj_value, inf_pr, inf_du, mu, d_norm,
                      regularization_size, alpha_du, alpha_pr, ls_trials) -> bool:
-        info = IterationInfo(iteration=int(iter_count), objective=float(obj_value),
+        info = IterationInfo(iteration=int(iter_count),
+                             objective=float(obj_value) / self._obj_scaler - self._obj_adder,
                              constraint_violation=float(inf_pr),
                              dual_infeasibility=float(inf_du),
                              elapsed_s=time.perf_counter() - self._t0)
