@@ -8,7 +8,10 @@ Iteration counts are deterministic (the same on a loaded machine), so this answe
 car on the full car's ISO 8608 road and grid (``bench_full_car.py``'s pair); the default
 full car; the robust NLP of ``examples/robust.toml`` and each of its scenarios alone
 (``bench_robust.py``'s comparison). Prints one row per case and option set: iterations,
-objective, solve time.
+objective, solve time. Each option set is added to the driver's defaults (``default``:
+those alone, which include ``limited_memory_aug_solver = extended``; ``sherman``: IPOPT's
+own default instead, the same steps at a different cost per step, which the solve time
+column shows side by side).
 """
 from __future__ import annotations
 
