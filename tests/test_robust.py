@@ -107,6 +107,27 @@ def test_worst_case_bounds_every_scenario_and_beats_the_sum_optimum(sum_optimum)
     assert combine(cfg_max, f_max) == pytest.approx(res_max['objective'], rel=1e-6)
 
 
+def test_a_short_scenarios_worst_case_row_goes_to_reverse_too():
+    """Four worst-case rows f_s ≤ t of unequal length, the shortest (a coarse scenario)
+    spanning under a fifth of the NLP's columns: all four are left to reverse solves, so
+    the forward colors stay those of the sparse rows (kept forward, that row alone would
+    need one color per state of its scenario: hundreds, and their dense seeds)."""
+    cfg = config_from_dict({'transcription': {'segments': 80}, 'objective': {'aggregate': 'max'},
+                            'scenario': [{'name': 'coarse', 'segments': 16},
+                                         {'name': 'b', 'speed': 8.0}, {'name': 'c', 'speed': 12.0},
+                                         {'name': 'd', 'speed': 14.0}]})
+    scales = tuple(dict.fromkeys(cfg.terms(), 1.0) for _ in cfg.scenarios())
+    with VehicleProblem(cfg, 'low', scales, use_cache=False) as vp:
+        vp.driver.prepare()
+        coloring = vp.driver.total_coloring()
+    m, n = coloring.shape
+    nnz = np.bincount(coloring.rows, minlength=m)
+    longest = np.sort(nnz)[::-1]
+    assert longest[3] < 0.2 * n < longest[2]  # the shortest of the four is the case
+    assert sorted(nnz[coloring.reverse_rows]) == sorted(longest[:4])
+    assert coloring.n_colors <= 2 * max(longest[4:])
+
+
 def test_dense_rows_by_reverse_solves_equal_openmdaos_totals(monkeypatch):
     """The worst-case bounds f_s ≤ t depend on every state of their scenario: the
     coloring leaves them to reverse solves. At a random point those rows, and all the

@@ -75,3 +75,18 @@ def test_coloring_is_valid_and_compact():
         hit = np.concatenate([Jc.indices[Jc.indptr[j]:Jc.indptr[j + 1]] for j in members])
         assert np.unique(hit).size == hit.size, f'color {c} columns share a row'
     assert colors.max() + 1 <= 2 * band + 2
+
+
+def test_dense_rows_are_the_ones_that_would_force_many_colors():
+    """Rows go to reverse solves when that saves colors, whatever share of the columns
+    they span: four worst-case rows of unequal length (the shortest a fifth of the NLP's
+    columns or less) all go; a thousand rows of 300 stay forward (300 colors < 1000
+    reverse seeds); no row of DENSE_ROW_MIN or fewer nonzeros goes."""
+    from suspopt.driver.sparsity import DENSE_ROW_MIN, dense_rows
+    rows = np.full(19120, 20)
+    epigraph = np.array([3645, 4005, 7285, 4205])
+    assert dense_rows(np.concatenate([rows, epigraph])).tolist() == list(range(19120, 19124))
+    assert dense_rows(np.full(1000, 300)).size == 0
+    assert dense_rows(np.concatenate([np.full(1000, 300), [5000]])).tolist() == [1000]
+    assert dense_rows(np.array([DENSE_ROW_MIN] * 3 + [10])).size == 0
+    assert dense_rows(np.zeros(0, dtype=int)).size == 0

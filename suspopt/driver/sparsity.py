@@ -196,9 +196,22 @@ def color_columns(pattern: sp.spmatrix) -> np.ndarray:
     return colors
 
 
-#: a constraint row with more nonzeros than both of these (count, share of the columns) is
-#: computed by a reverse solve
-DENSE_ROW_MIN, DENSE_ROW_SHARE = 200, 0.2
+#: only a constraint row with more nonzeros than this may be computed by a reverse solve
+DENSE_ROW_MIN = 200
+
+
+def dense_rows(row_nnz: np.ndarray) -> np.ndarray:
+    """The rows left to reverse solves (sorted indices): the k longest, for the k that
+    minimizes k (one reverse seed each) plus the length of the longest row left forward (a
+    lower bound on the forward colors: its columns all need colors of their own). Only
+    rows longer than :data:`DENSE_ROW_MIN` are candidates. E.g. the worst-case bounds
+    ``f_s ≤ t``, each dense over its own scenario's states, however many scenarios share
+    the NLP."""
+    order = np.argsort(-row_nnz, kind='stable')
+    length = np.append(row_nnz[order], 0)
+    k_max = int(np.count_nonzero(row_nnz > DENSE_ROW_MIN))
+    k = int(np.argmin(np.arange(k_max + 1) + length[:k_max + 1]))
+    return np.sort(order[:k])
 
 
 def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable]
@@ -216,7 +229,7 @@ def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable
     coo = pattern.tocoo()
     m, n = pattern.shape
     row_nnz = np.bincount(coo.row, minlength=m)
-    reverse = np.nonzero(row_nnz > max(DENSE_ROW_MIN, DENSE_ROW_SHARE * n))[0]
+    reverse = dense_rows(row_nnz)
     forward = pattern.tocsr()
     if reverse.size:
         keep = np.ones(m, dtype=bool)
