@@ -49,8 +49,8 @@ def test_ipopt_sees_the_weighted_mean_and_reports_the_weighted_sum():
     while the result, the history and the progress report Σ w_s f_s."""
     cfg = _config([{'name': 'a', 'weight': 1.0}, {'name': 'b', 'weight': 3.0, 'speed': 14.0}])
     scales = resolve_scales(cfg)
-    vp = VehicleProblem(cfg, 'low', scales)
-    (meta,) = vp.problem.model.get_objectives().values()
+    with VehicleProblem(cfg, 'low', scales) as vp:
+        (meta,) = vp.problem.model.get_objectives().values()
     assert meta['total_scaler'] == pytest.approx(0.25)
     seen = []
     r = optimize(cfg, 'low', scales=scales, progress=seen.append)
