@@ -227,7 +227,7 @@ def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable
     t1 = time.perf_counter()
     pattern.sort_indices()
     coo = pattern.tocoo()
-    m, n = pattern.shape
+    m = pattern.shape[0]
     row_nnz = np.bincount(coo.row, minlength=m)
     reverse = dense_rows(row_nnz)
     forward = pattern.tocsr()
