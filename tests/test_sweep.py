@@ -342,27 +342,29 @@ def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cl
 
 
 
-def _kill_running_worker(client, out: Path, kills: int, runner,
-                         delay: float = 0.3) -> list[int]:
+def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
     """SIGKILL the worker process running the sweep's only task, ``kills`` times: first
-    once the task has started (its output directory exists), then each rerun once it is
-    on a live worker, ``delay`` seconds into it (0: the task's start event may not have
-    left the worker; the scheduler's own count of deaths says it was an attempt). Which
-    worker: the scheduler's ``processing``; its pid: asked of that worker through the
-    client (the scheduler's identity of a worker has no pid)."""
+    once the task has started (its output directory exists), then each rerun as soon as
+    it is on a live worker (its start event may not have left the worker yet; the
+    scheduler's own count of deaths says it was an attempt). Which worker: the
+    scheduler's ``processing``; its pid: asked of that worker through the client (the
+    scheduler's identity of a worker has no pid); a killed worker's address is not asked
+    again (the scheduler may list it a moment longer, and asking a dead worker waits for
+    the connection to time out while the rerun finishes)."""
     killed: list[int] = []
+    dead: set[str] = set()
     deadline = time.monotonic() + 90
     while len(killed) < kills and time.monotonic() < deadline and runner.is_alive():
-        busy = [w for w, keys in client.processing().items() if keys]
+        busy = [w for w, keys in client.processing().items() if keys and w not in dead]
         if busy and list((out / 'tasks').glob('*/output')):
             try:
                 pid = client.run(os.getpid, workers=busy[:1], on_error='return')[busy[0]]
             except (KeyError, OSError):
                 pid = None
             if isinstance(pid, int) and pid not in killed:
-                time.sleep(delay)
                 os.kill(pid, signal.SIGKILL)
                 killed.append(pid)
+                dead.add(busy[0])
         time.sleep(0.02)
     return killed
 
@@ -373,17 +375,16 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
     """The sweep runs in a thread here (its client is its own); this thread kills."""
     import threading
     address, client = cluster
-    path = _files(tmp_path, f'study = "study.toml"\nverify = false\n[axes]\n'
-                            f'"maneuver.speed" = [{11 + kills}.0]\n')
+    # the multibody model: a task of about 2 s, long enough to be found running
+    path = _files(tmp_path, f'study = "study.toml"\nfidelity = "mixed"\nverify = false\n'
+                            f'[axes]\n"maneuver.speed" = [{11 + kills}.0]\n')
     out = tmp_path / 'out'
     lines: list[str] = []
     done: dict = {}
     runner = threading.Thread(target=lambda: done.update(outcome=run_sweep(
         path, out, scheduler=address, log=lines.append)))
     runner.start()
-    # one kill at once (before the start event may have left the worker), two each 0.3 s
-    # into the task
-    killed = _kill_running_worker(client, out, kills, runner, delay=0.0 if kills == 1 else 0.3)
+    killed = _kill_running_worker(client, out, kills, runner)
     runner.join(timeout=120)
     err = '\n'.join(lines)
     assert len(killed) == kills, err
