@@ -1148,8 +1148,11 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                     say(f'{name}: cancelled; it stays pending')
                     continue
                 # the scheduler counts the deaths of a task's workers itself; a worker
-                # that dies before the task's start event left it is counted there only
-                rec['attempts'] = max(attempts.get(name, 1), _deaths(client, fut.key) + 1)
+                # that dies before the task's start event left it is counted there only.
+                # A task failed as killed ran once per death; a finished one once more.
+                deaths = _deaths(client, fut.key)
+                killed = rec['state'] == 'failed' and rec['error'].startswith('KilledWorker')
+                rec['attempts'] = max(attempts.get(name, 1), deaths + (not killed))
                 rec['task'] = by_name[name].describe()
                 records[name] = rec
                 outcome.ran += 1

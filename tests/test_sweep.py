@@ -272,6 +272,36 @@ def test_a_failing_task_is_a_record_with_its_traceback(tmp_path):
     assert 'Traceback' in rec['traceback'] and 'ConfigError' in rec['traceback']
 
 
+def _dies_at_speed_13(payload: dict) -> dict:
+    """A task function whose worker process dies when its task has speed 13 (a no-op
+    task otherwise): a crash in native code, as the local cluster sees it."""
+    from suspopt.sweep import noop_task
+    time.sleep(0.2)
+    if payload['config']['maneuver']['speed'] == 13.0:
+        os._exit(1)
+    return noop_task(payload)
+
+
+def test_a_dead_local_worker_charges_only_its_own_task(tmp_path):
+    """The sweep gives each worker thread one task at a time (none waits on a worker that
+    may die): a worker that dies charges its running task only, so with no retries that
+    task fails as killed, after its one attempt, and every other task is done at its
+    first attempt."""
+    path = _files(tmp_path, 'study = "study.toml"\nfidelity = "low"\nretries = 0\n'
+                  '[axes]\n"maneuver.speed" = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]\n')
+    out = tmp_path / 'out'
+    res = run_sweep(path, out, workers=2, log=lambda m: None, task_fn=_dies_at_speed_13,
+                    worker_start='fork')
+    recs = _records(out)
+    assert len(recs) == 7 and res.exit_code == 1
+    states = {r['task']['values']['maneuver.speed']: r['state'] for r in recs.values()}
+    assert states == {v: "done" if v != 13.0 else "failed" for v in states}, \
+        [(r["task"]["values"], r["error"]) for r in recs.values() if r["state"] != "done"]
+    dead = next(r for r in recs.values() if r['state'] == 'failed')
+    assert dead['error'].startswith('KilledWorker'), dead['error']
+    assert all(r['attempts'] == 1 for r in recs.values()), [r['attempts'] for r in recs.values()]
+
+
 # --------------------------------------------------------------------------- external cluster
 @pytest.fixture(scope='module')
 def cluster(tmp_path_factory):
@@ -397,6 +427,7 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
         assert done['outcome'].exit_code == 1, err
         assert rec['state'] == 'failed' and rec['error'].startswith(
             'KilledWorker: its worker process died on each of 2 attempts')
+        assert rec['attempts'] == 2
         assert f"failed: {rec['name']}: KilledWorker" in err
     client.wait_for_workers(2, timeout=60)  # the nannies restarted them
 
