@@ -57,6 +57,9 @@ TOGGLE_SENSITIVITY = 100.0
 TRAVEL_STEPS = 10
 #: batches up to this many states iterate Newton's method as a whole (see _positions)
 SMALL_BATCH = 16
+#: read-only constraint Jacobians whose Schur complement and its inverse, and whose
+#: velocity tangent, are kept (see PlanarMultibodySolver._schur and _tangent)
+KEPT_SCHUR = 2
 
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
@@ -111,7 +114,9 @@ class PlanarMultibodySolver:
         self.mechanism = mechanism
         self.newton_tol = newton_tol
         self.newton_max_iter = newton_max_iter
-        self.calls = {'positions': 0, 'augmented': 0}
+        #: analyses (batched): position, eq. 11; and factorizations: the Schur complement
+        #: S of eq. 11 inverted, the velocity tangent solved (each once per pose)
+        self.calls = {'positions': 0, 'augmented': 0, 'schur': 0, 'tangent': 0}
 
         bodies = mechanism.bodies
         self.nb = nb = len(bodies)
@@ -123,8 +128,11 @@ class PlanarMultibodySolver:
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
         self._inv_mass = 1.0 / self.mass_diag
-        #: (C_q, C_q M⁻¹, C_q M⁻¹ C_qᵀ) of the last read-only C_q (see :meth:`_schur`)
-        self._last_schur: tuple | None = None
+        #: (C_q, C_q M⁻¹, C_q M⁻¹ C_qᵀ, its inverse) of the last read-only C_q's, newest
+        #: first (:meth:`_schur`)
+        self._kept_schur: list[tuple] = []
+        #: (C_q, the tangent -C_q,dep⁻¹ C_q,ind) of the same (:meth:`_tangent`)
+        self._kept_tangent: list[tuple] = []
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
         # markers (on bodies or on the ground)
@@ -534,17 +542,21 @@ class PlanarMultibodySolver:
         rhs_c = self.gamma(q, qd, motion)
         return self._augmented(q, qd, Q, Cq, rhs_c, baumgarte, method, motion)
 
-    def _augmented(self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='schur', motion=None):
-        """:meth:`solve_augmented` given ``C_q`` and ``γ``."""
+    def _augmented(self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='schur', motion=None,
+                   schur=None):
+        """:meth:`solve_augmented` given ``C_q`` and ``γ`` (and :meth:`_schur` of ``C_q``,
+        if the caller has it)."""
         N, n, m = q.shape[0], self.n, self.m
         if baumgarte is not None:
             alpha, beta = baumgarte
             rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
                      - beta**2 * self.constraints(q, motion))
         if method == 'schur':
-            CMi, S = self._schur(Cq)
-            lam = _batched_solve(S, np.einsum('nij,nj->ni', CMi, Q) - rhs_c,
-                                 'augmented system (eq. 11)')
+            CMi, S, S_inv = self._schur(Cq) if schur is None else schur
+            rhs = np.einsum('nij,nj->ni', CMi, Q) - rhs_c
+            lam = np.einsum('nij,nj->ni', S_inv, rhs)
+            if not np.isfinite(np.add.reduce(lam, axis=None)):
+                _finite(S, rhs, 'augmented system (eq. 11)')
             return (Q - np.einsum('nji,nj->ni', Cq, lam)) / self.mass_diag, lam
         if method != 'dense':
             raise ValueError(f"method must be 'schur' or 'dense', got {method!r}")
@@ -556,19 +568,23 @@ class PlanarMultibodySolver:
         x = _batched_solve(A, b, 'augmented system (eq. 11)')
         return x[:, :n], x[:, n:]
 
-    def _schur(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``C_q M⁻¹`` and ``C_q M⁻¹ C_qᵀ`` (N, m, n), (N, m, m). Kept for the last
-        read-only ``C_q`` (a remembered pose's, which cannot change in place): the finite
-        differences of the loads, rates and settings query the same pose again and again,
-        and get these bit for bit as computed afresh."""
-        last = self._last_schur
-        if last is not None and last[0] is Cq:
-            return last[1], last[2]
+    def _schur(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``C_q M⁻¹``, ``S = C_q M⁻¹ C_qᵀ`` (N, m, n), (N, m, m) and ``S⁻¹``: each ``λ`` is
+        one product with ``S⁻¹``. Kept for the last read-only ``C_q`` (a remembered
+        pose's, which cannot change in place): the finite differences of the loads, rates
+        and settings query the same pose again and again, and get these bit for bit as
+        computed afresh, with one factorization per pose instead of one per query."""
+        for kept in self._kept_schur:
+            if kept[0] is Cq:
+                return kept[1:]
         CMi = Cq * self._inv_mass
         S = CMi @ Cq.transpose(0, 2, 1)
+        S_inv = _batched_inverse(S, 'augmented system (eq. 11)')
+        self.calls['schur'] += 1
         if frozen(Cq):
-            self._last_schur = (Cq, freeze(CMi), freeze(S))
-        return CMi, S
+            self._kept_schur = [(Cq, freeze(CMi), freeze(S), freeze(S_inv)),
+                                *self._kept_schur[:KEPT_SCHUR - 1]]
+        return CMi, S, S_inv
 
     def reactions(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """What every joint (the mechanism's, then the fixed bodies' welds, order
@@ -747,48 +763,62 @@ class PlanarMultibodySolver:
     def velocities(self, q: np.ndarray, qd_ind: np.ndarray, Cq: np.ndarray | None = None,
                    max_sensitivity: float | None = None,
                    motion: Motion | None = None) -> np.ndarray:
-        """All velocities (N, n) from the independent ones: ``C_q q̇ = ν``.
+        """All velocities (N, n) from the independent ones: ``C_q q̇ = ν``, as
+        ``q̇_dep = T q̇_ind + C_q,dep⁻¹ ν`` with the tangent ``T = ∂q_dep/∂q_ind =
+        -C_q,dep⁻¹ C_q,ind`` (one factorization for both; ``T`` kept for the last
+        read-only ``C_q``'s when nothing moves by prescription: a new rate at a remembered
+        pose is one product).
 
         With ``max_sensitivity``, a state where some dependent coordinate moves more than
         that many times faster per unit of independent motion than at the reference pose
-        (``∂q_dep/∂q_ind = -C_q,dep⁻¹ C_q,ind``, solved with the same factorization) is a
-        :class:`MultibodyError`: the mechanism is at or near a singular (toggle) position,
-        the edge of its range of motion, where its dynamics have no finite solution."""
+        (the largest ``|T|``) is a :class:`MultibodyError`: the mechanism is at or near a
+        singular (toggle) position, the edge of its range of motion, where its dynamics
+        have no finite solution."""
         N = q.shape[0]
         qd = np.zeros_like(q)  # q's memory order (what einsum on qd sums in)
         if Cq is None:
             Cq = self.constraint_jacobian(q)
+        qd[:, self.ind] = qd_ind
+        nu = self._nu(self._drives(motion, N), N) if motion else None
+        T, drift = self._tangent(Cq, nu)
+        if max_sensitivity is not None:
+            ratio = np.maximum.reduce(np.abs(T).reshape(N, -1), axis=1) / self.sensitivity0
+            if np.maximum.reduce(ratio) > max_sensitivity:
+                worst = int(ratio.argmax())
+                raise MultibodyError(
+                    f'{self.mechanism.name}: near a singular (toggle) position at independent '
+                    f'coordinate(s) {np.round(q[worst, self.ind], 6).tolist()}: the linkage '
+                    f'moves {ratio[worst]:.3g} times faster than at its reference pose; this '
+                    'is the edge of its range of motion')
         if self.dof == 1:
-            i = int(self.ind[0])
-            qd[:, i:i + 1] = qd_ind
-            C_ind = Cq[:, :, i]
-            # the sum of one product, from zero (the signs of zeros) as einsum's
-            rhs = -(C_ind * qd[:, i:i + 1] + 0.0)
+            qd_dep = T[:, :, 0] * qd[:, self.ind]
         else:
-            qd[:, self.ind] = qd_ind
-            C_ind = Cq.take(self.ind, 2)
-            rhs = -np.einsum('nij,nj->ni', C_ind, qd[:, self.ind])
-        if motion:
-            nu = self._nu(self._drives(motion, N), N)
-            if nu is not None:
-                rhs = rhs + nu
-        if max_sensitivity is None:
-            qd[:, self.dep] = _batched_solve(Cq.take(self.dep, 2), rhs, 'velocity analysis')
-            return qd
-        b = np.empty((N, self.m, 1 + self.dof))
-        b[:, :, 0] = rhs
-        np.negative(C_ind, out=b[:, :, 1] if self.dof == 1 else b[:, :, 1:])
-        x = _batched_solve(Cq.take(self.dep, 2), b, 'velocity analysis')
-        qd[:, self.dep] = x[:, :, 0]
-        ratio = np.maximum.reduce(np.abs(x[:, :, 1:]).reshape(N, -1), axis=1) / self.sensitivity0
-        if np.maximum.reduce(ratio) > max_sensitivity:
-            worst = int(ratio.argmax())
-            raise MultibodyError(
-                f'{self.mechanism.name}: near a singular (toggle) position at independent '
-                f'coordinate(s) {np.round(q[worst, self.ind], 6).tolist()}: the linkage '
-                f'moves {ratio[worst]:.3g} times faster than at its reference pose; this is '
-                'the edge of its range of motion')
+            qd_dep = np.einsum('nij,nj->ni', T, qd[:, self.ind])
+        qd[:, self.dep] = qd_dep if drift is None else qd_dep + drift
+        if not np.isfinite(np.add.reduce(qd_dep, axis=None)):  # T is finite (solved)
+            raise MultibodyError('non-finite value in the velocity analysis')
         return qd
+
+    def _tangent(self, Cq: np.ndarray, nu: np.ndarray | None
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+        """``T = -C_q,dep⁻¹ C_q,ind`` (N, m, dof) and ``C_q,dep⁻¹ ν`` (N, m) (None without
+        ``ν``), from one factorization. Without ``ν``, kept for the last read-only
+        ``C_q``'s (a remembered pose's), bit for bit as computed afresh."""
+        if nu is None:
+            for kept in self._kept_tangent:
+                if kept[0] is Cq:
+                    return kept[1], None
+        b = np.empty((Cq.shape[0], self.m, self.dof + (nu is not None)))
+        np.negative(Cq.take(self.ind, 2), out=b[:, :, :self.dof])
+        if nu is not None:
+            b[:, :, self.dof] = nu
+        x = _batched_solve(Cq.take(self.dep, 2), b, 'velocity analysis')
+        self.calls['tangent'] += 1
+        if nu is not None:
+            return x[:, :, :self.dof], x[:, :, self.dof]
+        if frozen(Cq):
+            self._kept_tangent = [(Cq, freeze(x)), *self._kept_tangent[:KEPT_SCHUR - 1]]
+        return x, None
 
     def accelerations(self, q: np.ndarray, qd: np.ndarray, qdd_ind: np.ndarray,
                       Cq: np.ndarray | None = None, motion: Motion | None = None) -> np.ndarray:
@@ -924,6 +954,17 @@ def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     if not np.isfinite(np.add.reduce(x, axis=None)):
         _finite(A, b, what)
     return x[..., 0] if vector else x
+
+
+def _batched_inverse(A: np.ndarray, what: str) -> np.ndarray:
+    """The inverses of a batch of small dense matrices ``A`` (N, m, m); a singular one is
+    a MultibodyError (a non-finite one gives a non-finite inverse, found by its user)."""
+    try:
+        return np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        _finite(A, A[..., 0], what)
+        raise MultibodyError(f'singular {what}: the mechanism is in a singular '
+                             'configuration') from None
 
 
 def _finite(A: np.ndarray, b: np.ndarray, what: str) -> None:
