@@ -157,3 +157,29 @@ def test_lapack_solve_equals_numpy_public_solve():
         S._lapack_solve(A, b)
     with pytest.raises(MultibodyError, match='singular test system'):
         S._batched_solve(A, b[..., 0], 'test system')
+
+
+@pytest.mark.parametrize('mechanism', MECHANISMS)
+def test_the_pose_table_starts_position_analyses_converged(mechanism):
+    """Inside the travel range the pose table's prediction already meets the Newton
+    tolerance: one constraint evaluation per analysis, no Newton step, and the pose Newton
+    finds from the reference's tangent. Outside the range the tangent takes over."""
+    s = SuspensionModule(mechanism).solver
+    lo, hi = s.mechanism.travel
+    q_ind = np.random.default_rng(8).uniform(lo, hi, (500, 1)) + s.q0[s.ind]
+    analyses = []
+    analysis = s._analysis
+    s._analysis = lambda q, drives: analyses.append(q.shape[0]) or analysis(q, drives)
+    q = s.positions(q_ind)
+    assert analyses[-1] == 500 and analyses.count(500) == 1  # after the table's build
+    analyses.clear()
+    q = s.positions(q_ind)
+    assert analyses == [500]
+    assert np.max(np.abs(s.constraints(q))) < s.newton_tol
+    start = np.array(np.broadcast_to(s.q0, q.shape))
+    start[:, s.dep] += (q_ind - s.q0[s.ind]) @ s._tangent0.T
+    newton = s._positions(q_ind, start, [None] * len(s.joint_groups))
+    np.testing.assert_allclose(q, newton, rtol=0, atol=1e-12)
+    analyses.clear()
+    out = s.positions(np.array([[hi + 0.005]]) + s.q0[s.ind])
+    assert len(analyses) > 1 and np.max(np.abs(s.constraints(out))) < s.newton_tol

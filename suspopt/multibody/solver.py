@@ -57,6 +57,8 @@ TOGGLE_SENSITIVITY = 100.0
 TRAVEL_STEPS = 10
 #: batches up to this many states iterate Newton's method as a whole (see _positions)
 SMALL_BATCH = 16
+#: spacing of the pose table over a suspension's travel range [m of wheel travel]
+POSE_TABLE_SPACING = 1.25e-4
 #: read-only constraint Jacobians whose Schur complement and its inverse, and whose
 #: velocity tangent, are kept (see PlanarMultibodySolver._schur and _tangent)
 KEPT_SCHUR = 2
@@ -249,8 +251,13 @@ class PlanarMultibodySolver:
         E = np.zeros((self.m, self._drive_rows.size))
         E[self._drive_rows, np.arange(self._drive_rows.size)] = 1.0
         self._drive_tangent0 = np.linalg.solve(Cq[:, self.dep], E)
+        #: q_dep as a cubic spline of the single independent coordinate over the wheel
+        #: travel range (a suspension's), the start of its position analyses there; made
+        #: at the first analysis that needs it (False: none to make)
+        self._pose_spline = None
+        self._travel_poses = None
         if mechanism.travel is not None:
-            self._check_travel(mechanism.travel)
+            self._travel_poses = self._check_travel(mechanism.travel)
 
     # ---------------------------------------------------------------- run-time values
     def _ext(self, q: np.ndarray) -> np.ndarray:
@@ -689,10 +696,22 @@ class PlanarMultibodySolver:
         if not np.logical_and.reduce(np.isfinite(q_ind), axis=None):
             raise MultibodyError(f'{self.mechanism.name}: non-finite independent coordinate')
         N = q_ind.shape[0]
-        if guess is None:  # the reference pose moved along its tangent
+        driven = any(d is not None for d in drives)
+        if guess is None and not driven and self._pose_spline is None:
+            self._pose_spline = (False if self._travel_poses is None or self.dof != 1 else
+                                 self._pose_table(self.mechanism.travel, self._travel_poses)
+                                 or False)
+        if guess is None and not driven and self._pose_spline is not False:
+            # the pose table where it has the pose, the reference's tangent elsewhere
+            q = np.array(np.broadcast_to(self.q0, (N, self.n)))
+            table = self._pose_spline(q_ind[:, 0])
+            inside = ~np.isnan(table[:, 0])
+            q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
+            q[np.ix_(inside, self.dep)] = table[inside]
+        elif guess is None:  # the reference pose moved along its tangent
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
-            if any(d is not None for d in drives):  # and along the drives' (-C_q,dep⁻¹ C)
+            if driven:  # and along the drives' (-C_q,dep⁻¹ C)
                 q0e = self._ext(self.q0[None].repeat(N, 0))
                 C0 = [g.residual(q0e, d).reshape(N, -1) for g, d in zip(self.joint_groups, drives)
                       if g.rheonomic]
@@ -853,7 +872,7 @@ class PlanarMultibodySolver:
         return st
 
     # ---------------------------------------------------------------- checks
-    def _check_travel(self, travel: tuple[float, float]) -> None:
+    def _check_travel(self, travel: tuple[float, float]) -> dict[float, np.ndarray]:
         """The linkage passes its wheel travel range (the single independent coordinate,
         from the reference pose) without locking: position analysis by continuation in
         :data:`TRAVEL_STEPS` steps each way, each started from the last pose moved along
@@ -861,9 +880,11 @@ class PlanarMultibodySolver:
         than :data:`TOGGLE_SENSITIVITY` times faster than at its reference pose (a toggle,
         see :meth:`velocities`), or where the converged pose is farther from the
         prediction than the predicted step itself (no nearby pose: Newton found another
-        assembly). A ConfigError names the travel step and the joints that lock."""
+        assembly). A ConfigError names the travel step and the joints that lock. Returns
+        the poses visited, by wheel travel."""
         none = [None] * len(self.joint_groups)
         ind0 = self.q0[self.ind]
+        visited = {0.0: self.q0}
         for end in (travel[1], travel[0]):
             q, qd = self.q0[None], self.velocities(self.q0[None], np.ones((1, 1)))
             zs = np.linspace(0.0, end, TRAVEL_STEPS + 1)
@@ -883,6 +904,31 @@ class PlanarMultibodySolver:
                         f'[{travel[0]:g}, {travel[1]:g}] m (joints {self._locking_joints(q)}): '
                         + str(err).removeprefix(f'{self.mechanism.name}: ')) from None
                 q = q_new
+                visited[float(z)] = q[0]
+        return visited
+
+    def _pose_table(self, travel: tuple[float, float], visited: dict[float, np.ndarray]):
+        """The converged poses every :data:`POSE_TABLE_SPACING` of the travel range
+        (started from the travel check's poses, interpolated), as a cubic spline of the
+        independent coordinate: it predicts a pose there within about the Newton tolerance,
+        so a position analysis needs one Newton step fewer, or none. A function of the
+        mechanism alone, so every analysis still depends on its own query only."""
+        from scipy.interpolate import CubicSpline
+        lo, hi = travel
+        k = max(4, int(np.ceil((hi - lo) / POSE_TABLE_SPACING)) + 1)
+        z = np.linspace(lo, hi, k)
+        zv = np.array(sorted(visited))
+        qv = np.array([visited[x] for x in zv])
+        guess = np.stack([np.interp(z, zv, qv[:, j]) for j in range(self.n)], axis=1)
+        ind0 = self.q0[self.ind]
+        none = [None] * len(self.joint_groups)
+        try:
+            q = self._positions(ind0 + z[:, None], guess, none)
+            C, Cq, _ = self._analysis(q, none)  # one Newton step more: to the rounding floor
+            q[:, self.dep] -= _batched_solve(Cq.take(self.dep, 2), C, 'pose table')
+        except MultibodyError:  # the travel check passed step by step; keep the tangent
+            return None
+        return CubicSpline(ind0[0] + z, q[:, self.dep], axis=0, extrapolate=False)
 
     def _locking_joints(self, q: np.ndarray) -> list[str]:
         """Joints carrying the left singular vector of ``C_q,dep`` at ``q`` (the
