@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import functools
 import math
 import tomllib
 import typing
@@ -447,11 +448,17 @@ def _parse_value(tp: Any, val: Any, key: str, errs: _Errors, meta: dict) -> Any:
     raise TypeError(f'unsupported config type {tp!r}')  # pragma: no cover
 
 
+@functools.cache
+def _type_hints(cls: type) -> dict[str, Any]:
+    """The (evaluated) field types of a config dataclass, once per class."""
+    return typing.get_type_hints(cls)
+
+
 def _parse_dataclass(cls: type, data: Any, key: str, errs: _Errors) -> Any:
     if not isinstance(data, dict):
         errs.add(key, f'must be a table, got {data!r}')
         data = {}
-    hints = typing.get_type_hints(cls)
+    hints = _type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     for k in data:
         if k not in fields:
@@ -861,24 +868,47 @@ def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int)
 WHEEL_RATE_FLOOR = 1e-3
 
 
-def _mechanism_checks(cfg: StudyConfig) -> list[str]:
-    """Every mechanism loads, passes its travel range, and stands: a positive wheel rate at
-    the reference pose for every spring rate of its axle's design range."""
+#: _mechanism_standing's answers by (name, file content): a sweep validates the same
+#: mechanism for every task (a memo of a function of the file alone)
+_STANDING: dict[tuple[str, bytes], Any] = {}
+
+
+def _mechanism_standing(name: str) -> tuple[float, float, float, str] | list[str]:
+    """``(a, b, MR, spring)`` of :func:`reference_wheel_rate` for mechanism ``name``, or
+    the problems of its file."""
     from suspopt.multibody.kinematics import reference_wheel_rate
     from suspopt.multibody.mechanism import load_mechanism, mechanism_path
     from suspopt.multibody.solver import PlanarMultibodySolver
+    try:
+        memo = (name, mechanism_path(name).read_bytes())
+    except OSError:  # load_mechanism names the problem
+        memo = None
+    if memo in _STANDING:
+        return _STANDING[memo]
+    try:
+        mech = load_mechanism(name, suspension=True)
+        out: Any = (*reference_wheel_rate(mech, PlanarMultibodySolver(mech)),
+                    mech.roles['spring'])
+    except ConfigError as err:
+        out = err.problems
+    if memo is not None:
+        if len(_STANDING) >= 64:
+            _STANDING.clear()
+        _STANDING[memo] = out
+    return out
+
+
+def _mechanism_checks(cfg: StudyConfig) -> list[str]:
+    """Every mechanism loads, passes its travel range, and stands: a positive wheel rate at
+    the reference pose for every spring rate of its axle's design range."""
+    from suspopt.multibody.mechanism import mechanism_path
     errs = []
     seen: dict[str, Any] = {}
     for i, axle in enumerate(('front', 'rear')):
         name = getattr(cfg.vehicle, axle).mechanism
         key = f'vehicle.{axle}.mechanism'
         if name not in seen:
-            try:
-                mech = load_mechanism(name, suspension=True)
-                seen[name] = (*reference_wheel_rate(mech, PlanarMultibodySolver(mech)),
-                              mech.roles['spring'])
-            except ConfigError as err:
-                seen[name] = err.problems
+            seen[name] = _mechanism_standing(name)
         if isinstance(seen[name], list):
             errs.extend(f'{key}: {m}' for m in seen[name])
             continue

@@ -167,6 +167,23 @@ def test_bad_mechanism_file(tmp_path):
     assert 'bodies[1].inertia: must be > 0' in text
 
 
+def test_a_mechanism_file_edited_between_loads_is_checked_anew(tmp_path):
+    """The mechanism checks are remembered by the file's content (a sweep validates one
+    mechanism per task), never by its name alone."""
+    from suspopt.multibody.mechanism import mechanism_path
+    text = mechanism_path('double_wishbone').read_text()
+    mech = tmp_path / 'mech.toml'
+    mech.write_text(text)
+    path = _write(tmp_path, f'[vehicle.front]\nmechanism = "{mech.name}"')
+    load_config(path)
+    mech.write_text(text.replace('mass = 20.0', 'mass = -20.0', 1))
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert 'bodies[1].mass: must be > 0' in '\n'.join(err.value.problems)
+    mech.write_text(text)
+    load_config(path)
+
+
 def test_bad_command_line_values(capsys):
     assert main(['evaluate', '--fidelity', 'low', '--design', '1,2,3']) == 2
     assert '--design' in capsys.readouterr().err
