@@ -193,16 +193,14 @@ def test_solver_calls_per_jacobian_do_not_grow_with_nodes(kind, form, factor, me
     # every Jacobian runs the black box once per input variable and FD perturbation; the
     # module analyses positions anew only where the wheel travel changed (the z_W
     # perturbations), and nothing anew at a point it has just analysed. Factorizations:
-    # the velocity tangent once per new pose; the Schur complement of eq. 11 inverted
-    # once per new pose, kept for the last two (a central difference's three poses take
-    # turns, three inversions per Jacobian instead of one solve per query)
-    dyn = kind == 'dyn'
-    schur = (dyn * (1 if form == 'forward' else 3), dyn * (0 if form == 'forward' else 3))
-    tangent = (1 if form == 'forward' else 3, 0)
+    # C_q,dep inverted once per new pose (for the velocity analysis and eq. 11), kept for
+    # the last two (a central difference's three poses take turns: three inversions per
+    # Jacobian instead of a factorization per query)
+    new = (1, 0) if form == 'forward' else (3, 3 if kind == 'dyn' else 0)
     expected = [(factor * n_in, {'positions': factor, 'augmented': augmented,
-                                 'schur': schur[0], 'tangent': tangent[0]}),
+                                 'factorizations': new[0]}),
                 (factor * n_in, {'positions': 0, 'augmented': augmented,
-                                 'schur': schur[1], 'tangent': tangent[1]})]
+                                 'factorizations': new[1]})]
     for nn in (10, 80):
         assert counts[nn] == expected, (nn, counts[nn])
     assert counts[10] == counts[80]

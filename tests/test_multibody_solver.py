@@ -301,20 +301,28 @@ def test_reactions_newton_euler_in_motion(mech, solver):
         assert np.max(np.abs(res)) < 1e-9 * 3000.0
 
 
-def test_schur_elimination_equals_the_assembled_augmented_solve(solver):
-    """The default solve of eq. 11 eliminates q̈ with the diagonal M (a Schur complement);
-    it must give the same q̈ and λ as an LU factorization of the assembled augmented
-    matrix, with and without Baumgarte terms, at many moving, loaded states."""
+@pytest.mark.parametrize('mechanism', ['double_wishbone', 'macpherson', 'sla_double_wishbone'])
+def test_eliminations_of_eq_11_equal_the_assembled_augmented_solve(mechanism):
+    """The default solve of eq. 11 (coordinate partitioning: the tangent's null space of
+    C_q, then λ from the dependent rows) and the Schur complement of the diagonal M must
+    give the same q̈ and λ as an LU factorization of the assembled augmented matrix, with
+    and without Baumgarte terms, at many moving, loaded states."""
+    from suspopt.multibody.suspension import SuspensionModule
+    solver = SuspensionModule(mechanism).solver
     rng = np.random.default_rng(11)
     N = 64
     st = solver.consistent_state(rng.uniform(-0.05, 0.05, (N, 1)), rng.uniform(-1, 1, (N, 1)))
-    Q = solver.generalized_forces(st.q, rng.uniform(-3000, 3000, (N, 2)))
+    Q = rng.uniform(-3000, 3000, (N, solver.n))
     for stab in (None, (10.0, 10.0)):
-        qdd_s, lam_s = solver.solve_augmented(st.q, st.qd, Q, baumgarte=stab)
         qdd_d, lam_d = solver.solve_augmented(st.q, st.qd, Q, baumgarte=stab, method='dense')
-        np.testing.assert_allclose(qdd_s, qdd_d, rtol=0.0, atol=1e-10 * np.max(np.abs(qdd_d)))
-        np.testing.assert_allclose(lam_s, lam_d, rtol=0.0, atol=1e-10 * np.max(np.abs(lam_d)))
-    with pytest.raises(ValueError, match='schur'):
+        for method in ('partitioned', 'schur'):
+            qdd, lam = solver.solve_augmented(st.q, st.qd, Q, baumgarte=stab, method=method)
+            np.testing.assert_allclose(qdd, qdd_d, rtol=0.0, atol=1e-10 * np.max(np.abs(qdd_d)))
+            np.testing.assert_allclose(lam, lam_d, rtol=0.0, atol=1e-10 * np.max(np.abs(lam_d)))
+        default = solver.solve_augmented(st.q, st.qd, Q, baumgarte=stab)
+        part = solver.solve_augmented(st.q, st.qd, Q, baumgarte=stab, method='partitioned')
+        assert all(np.array_equal(a, b) for a, b in zip(default, part))
+    with pytest.raises(ValueError, match='partitioned'):
         solver.solve_augmented(st.q, st.qd, Q, method='qr')
 
 

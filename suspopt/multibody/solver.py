@@ -59,9 +59,8 @@ TRAVEL_STEPS = 10
 SMALL_BATCH = 16
 #: spacing of the pose table over a suspension's travel range [m of wheel travel]
 POSE_TABLE_SPACING = 1.25e-4
-#: read-only constraint Jacobians whose Schur complement and its inverse, and whose
-#: velocity tangent, are kept (see PlanarMultibodySolver._schur and _tangent)
-KEPT_SCHUR = 2
+#: read-only constraint Jacobians whose partitioning is kept (PlanarMultibodySolver._partition)
+KEPT_POSES = 2
 
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
@@ -116,9 +115,9 @@ class PlanarMultibodySolver:
         self.mechanism = mechanism
         self.newton_tol = newton_tol
         self.newton_max_iter = newton_max_iter
-        #: analyses (batched): position, eq. 11; and factorizations: the Schur complement
-        #: S of eq. 11 inverted, the velocity tangent solved (each once per pose)
-        self.calls = {'positions': 0, 'augmented': 0, 'schur': 0, 'tangent': 0}
+        #: analyses (batched): position, eq. 11; and factorizations: C_q,dep inverted (for
+        #: the velocity analysis and eq. 11, once per pose)
+        self.calls = {'positions': 0, 'augmented': 0, 'factorizations': 0}
 
         bodies = mechanism.bodies
         self.nb = nb = len(bodies)
@@ -130,11 +129,9 @@ class PlanarMultibodySolver:
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
         self._inv_mass = 1.0 / self.mass_diag
-        #: (C_q, C_q M⁻¹, C_q M⁻¹ C_qᵀ, its inverse) of the last read-only C_q's, newest
-        #: first (:meth:`_schur`)
-        self._kept_schur: list[tuple] = []
-        #: (C_q, the tangent -C_q,dep⁻¹ C_q,ind) of the same (:meth:`_tangent`)
-        self._kept_tangent: list[tuple] = []
+        #: (C_q, C_q,dep⁻¹, the tangent) of the last read-only C_q's, newest first
+        #: (:meth:`_partition`)
+        self._kept_partition: list[tuple] = []
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
         # markers (on bodies or on the ground)
@@ -533,65 +530,101 @@ class PlanarMultibodySolver:
     # ---------------------------------------------------------------- dynamics
     def solve_augmented(self, q: np.ndarray, qd: np.ndarray, Q: np.ndarray,
                         baumgarte: tuple[float, float] | None = None,
-                        Cq: np.ndarray | None = None, method: str = 'schur',
+                        Cq: np.ndarray | None = None, method: str = 'partitioned',
                         motion: Motion | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Solve eq. 11 for ``q̈`` (N, n) and ``λ`` (N, m), batched over N states
-        (``Cq``: the constraint Jacobian at ``q`` if the caller already has it).
+        (``Cq``: the constraint Jacobian at ``q`` if the caller already has it). The
+        methods give the same solution of the same system, by different eliminations:
 
-        ``method='schur'`` (default) eliminates ``q̈`` from the augmented system with the
-        constant diagonal ``M``: ``(C_q M⁻¹ C_qᵀ) λ = C_q M⁻¹ Q - γ``, then
-        ``q̈ = M⁻¹ (Q - C_qᵀ λ)`` — the same solution with an m × m instead of an
-        (n + m) × (n + m) factorization per state (cheaper);
-        ``'dense'`` factorizes the assembled augmented matrix itself."""
+        ``'partitioned'`` (default): with ``C_q,dep⁻¹`` of the coordinate partitioning,
+        ``q̈ = V q̈_ind + G`` satisfies the constraint rows for any ``q̈_ind`` (``V = [T; I]``,
+        the tangent ``T = -C_q,dep⁻¹ C_q,ind``, ``G = [C_q,dep⁻¹ γ; 0]``); ``Vᵀ`` times
+        the force rows (``Vᵀ C_qᵀ = 0``) gives ``(Vᵀ M V) q̈_ind = Vᵀ (Q - M G)``, a
+        dof × dof system, and their dependent rows ``λ = C_q,dep⁻ᵀ (Q - M q̈)_dep``. One
+        inversion per pose (shared with the velocity analysis, :meth:`_partition`),
+        then products only: the finite differences query each pose many times.
+        ``'schur'``: ``(C_q M⁻¹ C_qᵀ) λ = C_q M⁻¹ Q - γ``, then ``q̈ = M⁻¹ (Q - C_qᵀ λ)``
+        (an m × m factorization per query, M being diagonal).
+        ``'dense'``: factorizes the assembled (n + m) × (n + m) matrix itself."""
         self.calls['augmented'] += 1
         if Cq is None:
             Cq = self.constraint_jacobian(q)
         rhs_c = self.gamma(q, qd, motion)
         return self._augmented(q, qd, Q, Cq, rhs_c, baumgarte, method, motion)
 
-    def _augmented(self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='schur', motion=None,
-                   schur=None):
-        """:meth:`solve_augmented` given ``C_q`` and ``γ`` (and :meth:`_schur` of ``C_q``,
-        if the caller has it)."""
+    def _augmented(self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='partitioned',
+                   motion=None, partition=None):
+        """:meth:`solve_augmented` given ``C_q`` and ``γ`` (and :meth:`_partition` of
+        ``C_q``, if the caller has it)."""
         N, n, m = q.shape[0], self.n, self.m
         if baumgarte is not None:
             alpha, beta = baumgarte
             rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
                      - beta**2 * self.constraints(q, motion))
-        if method == 'schur':
-            CMi, S, S_inv = self._schur(Cq) if schur is None else schur
-            rhs = np.einsum('nij,nj->ni', CMi, Q) - rhs_c
-            lam = np.einsum('nij,nj->ni', S_inv, rhs)
+        what = 'augmented system (eq. 11)'
+        if method == 'partitioned':
+            Cinv, T = self._partition(Cq) if partition is None else partition
+            g = np.einsum('nij,nj->ni', Cinv, rhs_c)
+            m_dep = self.mass_diag[self.dep]
+            f_dep = Q[:, self.dep] - m_dep * g  # (Q - M G)_dep
+            if self.dof == 1:
+                t = T[:, :, 0]
+                i = int(self.ind[0])
+                qdd_ind = ((Q[:, i] + np.einsum('ni,ni->n', t, f_dep))
+                           / (self.mass_diag[i] + (t * t) @ m_dep))[:, None]
+                qdd_dep = t * qdd_ind + g
+            else:
+                Mr = np.einsum('nji,j,njk->nik', T, m_dep, T)
+                Mr[:, np.arange(self.dof), np.arange(self.dof)] += self.mass_diag[self.ind]
+                qdd_ind = _batched_solve(Mr, Q[:, self.ind] + np.einsum('nji,nj->ni', T, f_dep),
+                                         what)
+                qdd_dep = np.einsum('nij,nj->ni', T, qdd_ind) + g
+            qdd = np.empty((N, n))
+            qdd[:, self.ind] = qdd_ind
+            qdd[:, self.dep] = qdd_dep
+            lam = np.einsum('nji,nj->ni', Cinv, Q[:, self.dep] - m_dep * qdd_dep)
             if not np.isfinite(np.add.reduce(lam, axis=None)):
-                _finite(S, rhs, 'augmented system (eq. 11)')
+                _finite(Cq, np.concatenate([Q, rhs_c], axis=1), what)
+            return qdd, lam
+        if method == 'schur':
+            CMi = Cq * self._inv_mass
+            lam = _batched_solve(CMi @ Cq.transpose(0, 2, 1),
+                                 np.einsum('nij,nj->ni', CMi, Q) - rhs_c, what)
             return (Q - np.einsum('nji,nj->ni', Cq, lam)) / self.mass_diag, lam
         if method != 'dense':
-            raise ValueError(f"method must be 'schur' or 'dense', got {method!r}")
+            raise ValueError(f"method must be 'partitioned', 'schur' or 'dense', "
+                             f"got {method!r}")
         A = np.zeros((N, n + m, n + m))
         A[:, :n, :n] = self.M
         A[:, :n, n:] = Cq.transpose(0, 2, 1)
         A[:, n:, :n] = Cq
         b = np.concatenate([Q, rhs_c], axis=1)
-        x = _batched_solve(A, b, 'augmented system (eq. 11)')
+        x = _batched_solve(A, b, what)
         return x[:, :n], x[:, n:]
 
-    def _schur(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``C_q M⁻¹``, ``S = C_q M⁻¹ C_qᵀ`` (N, m, n), (N, m, m) and ``S⁻¹``: each ``λ`` is
-        one product with ``S⁻¹``. Kept for the last read-only ``C_q`` (a remembered
-        pose's, which cannot change in place): the finite differences of the loads, rates
-        and settings query the same pose again and again, and get these bit for bit as
-        computed afresh, with one factorization per pose instead of one per query."""
-        for kept in self._kept_schur:
+    def _partition(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``C_q,dep⁻¹`` (N, m, m) and the tangent ``T = ∂q_dep/∂q_ind = -C_q,dep⁻¹ C_q,ind``
+        (N, m, dof) at a pose: the velocity analysis and eq. 11 as products. Kept for the
+        last :data:`KEPT_POSES` read-only ``C_q``'s (remembered poses, which cannot change
+        in place): the finite differences query the same pose again and again and get
+        these bit for bit as computed afresh, one inversion per pose."""
+        for kept in self._kept_partition:
             if kept[0] is Cq:
-                return kept[1:]
-        CMi = Cq * self._inv_mass
-        S = CMi @ Cq.transpose(0, 2, 1)
-        S_inv = _batched_inverse(S, 'augmented system (eq. 11)')
-        self.calls['schur'] += 1
+                return kept[1], kept[2]
+        try:
+            Cinv = np.linalg.inv(Cq.take(self.dep, 2))
+        except np.linalg.LinAlgError:
+            _finite(Cq, Cq[:, :, 0], 'constraint Jacobian')
+            raise MultibodyError('singular constraint Jacobian C_q,dep: the mechanism is in '
+                                 'a singular configuration') from None
+        T = -(Cinv @ Cq.take(self.ind, 2))
+        if not np.isfinite(np.add.reduce(T, axis=None)):
+            _finite(Cq, Cq[:, :, 0], 'constraint Jacobian')
+        self.calls['factorizations'] += 1
         if frozen(Cq):
-            self._kept_schur = [(Cq, freeze(CMi), freeze(S), freeze(S_inv)),
-                                *self._kept_schur[:KEPT_SCHUR - 1]]
-        return CMi, S, S_inv
+            self._kept_partition = [(Cq, freeze(Cinv), freeze(T)),
+                                    *self._kept_partition[:KEPT_POSES - 1]]
+        return Cinv, T
 
     def reactions(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """What every joint (the mechanism's, then the fixed bodies' welds, order
@@ -784,9 +817,8 @@ class PlanarMultibodySolver:
                    motion: Motion | None = None) -> np.ndarray:
         """All velocities (N, n) from the independent ones: ``C_q q̇ = ν``, as
         ``q̇_dep = T q̇_ind + C_q,dep⁻¹ ν`` with the tangent ``T = ∂q_dep/∂q_ind =
-        -C_q,dep⁻¹ C_q,ind`` (one factorization for both; ``T`` kept for the last
-        read-only ``C_q``'s when nothing moves by prescription: a new rate at a remembered
-        pose is one product).
+        -C_q,dep⁻¹ C_q,ind`` (:meth:`_partition`: a new rate at a remembered pose is
+        products only).
 
         With ``max_sensitivity``, a state where some dependent coordinate moves more than
         that many times faster per unit of independent motion than at the reference pose
@@ -798,8 +830,7 @@ class PlanarMultibodySolver:
         if Cq is None:
             Cq = self.constraint_jacobian(q)
         qd[:, self.ind] = qd_ind
-        nu = self._nu(self._drives(motion, N), N) if motion else None
-        T, drift = self._tangent(Cq, nu)
+        Cinv, T = self._partition(Cq)
         if max_sensitivity is not None:
             ratio = np.maximum.reduce(np.abs(T).reshape(N, -1), axis=1) / self.sensitivity0
             if np.maximum.reduce(ratio) > max_sensitivity:
@@ -813,31 +844,13 @@ class PlanarMultibodySolver:
             qd_dep = T[:, :, 0] * qd[:, self.ind]
         else:
             qd_dep = np.einsum('nij,nj->ni', T, qd[:, self.ind])
-        qd[:, self.dep] = qd_dep if drift is None else qd_dep + drift
-        if not np.isfinite(np.add.reduce(qd_dep, axis=None)):  # T is finite (solved)
+        nu = self._nu(self._drives(motion, N), N) if motion else None
+        if nu is not None:
+            qd_dep = qd_dep + np.einsum('nij,nj->ni', Cinv, nu)
+        if not np.isfinite(np.add.reduce(qd_dep, axis=None)):  # T is finite
             raise MultibodyError('non-finite value in the velocity analysis')
+        qd[:, self.dep] = qd_dep
         return qd
-
-    def _tangent(self, Cq: np.ndarray, nu: np.ndarray | None
-                 ) -> tuple[np.ndarray, np.ndarray | None]:
-        """``T = -C_q,dep⁻¹ C_q,ind`` (N, m, dof) and ``C_q,dep⁻¹ ν`` (N, m) (None without
-        ``ν``), from one factorization. Without ``ν``, kept for the last read-only
-        ``C_q``'s (a remembered pose's), bit for bit as computed afresh."""
-        if nu is None:
-            for kept in self._kept_tangent:
-                if kept[0] is Cq:
-                    return kept[1], None
-        b = np.empty((Cq.shape[0], self.m, self.dof + (nu is not None)))
-        np.negative(Cq.take(self.ind, 2), out=b[:, :, :self.dof])
-        if nu is not None:
-            b[:, :, self.dof] = nu
-        x = _batched_solve(Cq.take(self.dep, 2), b, 'velocity analysis')
-        self.calls['tangent'] += 1
-        if nu is not None:
-            return x[:, :, :self.dof], x[:, :, self.dof]
-        if frozen(Cq):
-            self._kept_tangent = [(Cq, freeze(x)), *self._kept_tangent[:KEPT_SCHUR - 1]]
-        return x, None
 
     def accelerations(self, q: np.ndarray, qd: np.ndarray, qdd_ind: np.ndarray,
                       Cq: np.ndarray | None = None, motion: Motion | None = None) -> np.ndarray:
@@ -1000,17 +1013,6 @@ def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     if not np.isfinite(np.add.reduce(x, axis=None)):
         _finite(A, b, what)
     return x[..., 0] if vector else x
-
-
-def _batched_inverse(A: np.ndarray, what: str) -> np.ndarray:
-    """The inverses of a batch of small dense matrices ``A`` (N, m, m); a singular one is
-    a MultibodyError (a non-finite one gives a non-finite inverse, found by its user)."""
-    try:
-        return np.linalg.inv(A)
-    except np.linalg.LinAlgError:
-        _finite(A, A[..., 0], what)
-        raise MultibodyError(f'singular {what}: the mechanism is in a singular '
-                             'configuration') from None
 
 
 def _finite(A: np.ndarray, b: np.ndarray, what: str) -> None:

@@ -404,11 +404,11 @@ class SuspensionModule:
             q, Cq = tile(state.q), tile(state.Cq)
             motion = self.mount_motion(tuple(tile(p) for p in pose), acc)
             # solve_augmented(q, qd, Qb, Cq=Cq, motion=motion), with the remembered pose's
-            # Schur complement and its inverse (each block's is the same)
+            # partitioning (each block's is the same)
             s.calls['augmented'] += 1
-            schur = tuple(tile(a) for a in s._schur(state.Cq))
+            partition = tuple(tile(a) for a in s._partition(state.Cq))
             qdd, lam = s._augmented(q, qd, Qb, Cq, s.gamma(q, qd, motion), motion=motion,
-                                    schur=schur)
+                                    partition=partition)
             R = s.reactions(q, lam)
             # Newton-Euler on the frame: all the linkage applies on it (its drive aside)
             on_frame = self._frame_mass * qdd[:, self._frame] - R[:, self._mount_k, 0]
