@@ -265,8 +265,14 @@ def test_chassis_mounted_black_boxes_fd_and_sparsity(kind, roll):
         return evaluate(values)
 
     comp.evaluate = counting
+    solver = comp.options['modules'][0].solver
+    before = dict(solver.calls)
     J = p.compute_totals(of=outs, wrt=ins, return_format='dict')
     assert calls[0] == len(ins)
+    # one factorization per pose the differences visit (wheel travel, mount height and
+    # rotation moved), none again at the base pose between them
+    new = {k: solver.calls[k] - before[k] for k in ('positions', 'factorizations')}
+    assert new['factorizations'] == new['positions'] == (3 if roll else 2), new
     comp.evaluate = evaluate
     ref = reference_jacobian(comp, x, ins, outs)
     for (o, w), R in ref.items():

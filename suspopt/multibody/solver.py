@@ -59,8 +59,10 @@ TRAVEL_STEPS = 10
 SMALL_BATCH = 16
 #: spacing of the pose table over a suspension's travel range [m of wheel travel]
 POSE_TABLE_SPACING = 1.25e-4
-#: read-only constraint Jacobians whose partitioning is kept (PlanarMultibodySolver._partition)
-KEPT_POSES = 2
+#: read-only constraint Jacobians whose partitioning is kept (PlanarMultibodySolver._partition):
+#: the poses one finite-difference Jacobian visits (the base and one per position input:
+#: wheel travel, and a chassis mount's height and rotation)
+KEPT_POSES = 4
 
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
@@ -132,6 +134,8 @@ class PlanarMultibodySolver:
         #: (C_q, C_q,dep⁻¹, the tangent) of the last read-only C_q's, newest first
         #: (:meth:`_partition`)
         self._kept_partition: list[tuple] = []
+        #: (q, each joint group's Jacobian blocks) of the last read-only q's
+        self._kept_joint_jacobians: list[tuple] = []
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
         # markers (on bodies or on the ground)
@@ -626,16 +630,33 @@ class PlanarMultibodySolver:
                                     *self._kept_partition[:KEPT_POSES - 1]]
         return Cinv, T
 
-    def reactions(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    def reactions(self, q: np.ndarray, lam: np.ndarray,
+                  jacobians: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
         """What every joint (the mechanism's, then the fixed bodies' welds, order
         :attr:`joint_names`) applies on each of its bodies (:attr:`joint_bodies`; a
         prescribed joint has one): (N, n_joints, 2, 3) = force (x, z) and torque about
-        that body's CG (about the origin for the ground), ``-(∂C_k/∂q_b)ᵀ λ_k``."""
-        qe = self._ext(q)
+        that body's CG (about the origin for the ground), ``-(∂C_k/∂q_b)ᵀ λ_k``
+        (``jacobians``: :meth:`_joint_jacobians` at ``q``, if the caller has them)."""
         out = np.zeros((q.shape[0], len(self.joint_names), 2, 3))
-        for g in self.joint_groups:
-            out[:, g.members, :g.n_bodies] = g.reactions(qe, lam[:, g.rows])
+        if jacobians is None:
+            jacobians = self._joint_jacobians(q)
+        for g, jac in zip(self.joint_groups, jacobians):
+            out[:, g.members, :g.n_bodies] = g.reactions(None, lam[:, g.rows], jac)
         return out
+
+    def _joint_jacobians(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Each joint group's Jacobian blocks ``∂C/∂q_b`` at ``q`` (what its reactions
+        take), kept for the last :data:`KEPT_POSES` read-only ``q``'s: the reactions of a
+        remembered pose are products only, bit for bit as computed afresh."""
+        for kept in self._kept_joint_jacobians:
+            if kept[0] is q:
+                return kept[1]
+        qe = self._ext(q)
+        jacs = tuple(g.jacobian(qe) for g in self.joint_groups)
+        if frozen(q):
+            self._kept_joint_jacobians = [(q, tuple(freeze(j) for j in jacs)),
+                                          *self._kept_joint_jacobians[:KEPT_POSES - 1]]
+        return jacs
 
     def joint_reactions(self, lam: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Force each of the mechanism's joints applies on its first body, global axes,

@@ -409,7 +409,7 @@ class SuspensionModule:
             partition = tuple(tile(a) for a in s._partition(state.Cq))
             qdd, lam = s._augmented(q, qd, Qb, Cq, s.gamma(q, qd, motion), motion=motion,
                                     partition=partition)
-            R = s.reactions(q, lam)
+            R = s.reactions(q, lam, tuple(tile(j) for j in s._joint_jacobians(state.q)))
             # Newton-Euler on the frame: all the linkage applies on it (its drive aside)
             on_frame = self._frame_mass * qdd[:, self._frame] - R[:, self._mount_k, 0]
             P = np.stack([np.full(q.shape[0], self.mount_point[0]),

@@ -230,11 +230,17 @@ class JointGroup:
         reference) as one array with a state axis second, passed back to its methods."""
         raise NotImplementedError
 
-    def reactions(self, qe: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    def reactions(self, qe: np.ndarray | None, lam: np.ndarray,
+                  jacobian: np.ndarray | None = None) -> np.ndarray:
         """Generalized constraint force ``-(∂C/∂q_b)ᵀ λ`` on each connected body b:
         (N, ne, S, 3) = force (x, z) and torque about the body's CG (for the ground: about
-        the origin). ``lam`` (N, ne, k) are this group's multipliers."""
-        return -np.einsum('neskc,nek->nesc', self.jacobian(qe), lam)
+        the origin). ``lam`` (N, ne, k) are this group's multipliers; ``jacobian``: this
+        group's :meth:`jacobian` at ``qe``, if the caller has it."""
+        J = self.jacobian(qe) if jacobian is None else jacobian  # (N, ne, S, k, 3)
+        out = J[:, :, :, 0, :] * lam[:, :, None, 0, None]  # the sum over k, as einsum's
+        for i in range(1, J.shape[3]):
+            out = out + J[:, :, :, i, :] * lam[:, :, None, i, None]
+        return -out
 
 
 class CoincidenceJointGroup(JointGroup):
