@@ -143,18 +143,21 @@ def test_constraint_residual_from_the_last_kinematics(mount):
     assert mod.constraint_residual(kin.state, kin.pose) == slow
 
 
-def test_lapack_solve_equals_numpy_public_solve():
-    """``solver._lapack_solve`` (NumPy's private gufunc behind ``np.linalg.solve``, for
-    small batches) gives what the public function gives, and raises as it does on a
-    singular system; the public function is its fallback."""
+def test_lapack_solve_and_inverse_equal_numpy_public_ones():
+    """``solver._lapack_solve`` and ``_lapack_inv`` (NumPy's private gufuncs behind
+    ``np.linalg.solve`` and ``.inv``, for small batches) give what the public functions
+    give, and raise as they do on a singular system; the public ones are their fallback."""
     from suspopt.multibody import solver as S
     rng = np.random.default_rng(0)
     A = rng.normal(size=(5, 4, 4)) + 4.0 * np.eye(4)
     b = rng.normal(size=(5, 4, 1))
     assert np.array_equal(S._lapack_solve(A, b), np.linalg.solve(A, b))
+    assert np.array_equal(S._lapack_inv(A), np.linalg.inv(A))
     A[2] = 0.0
     with pytest.raises(np.linalg.LinAlgError):
         S._lapack_solve(A, b)
+    with pytest.raises(np.linalg.LinAlgError):
+        S._lapack_inv(A)
     with pytest.raises(MultibodyError, match='singular test system'):
         S._batched_solve(A, b[..., 0], 'test system')
 

@@ -235,6 +235,8 @@ class PlanarMultibodySolver:
                 f'{mechanism.name}: the mechanism has {self.dof} degrees of freedom '
                 f'({self.n} coordinates, {self.m} constraint equations) but '
                 f'{len(self.ind)} independent coordinates are given')
+        self._mass_dep = self.mass_diag[self.dep]
+        self._ind0 = int(self.ind[0]) if self.dof else 0
         Cq = self.constraint_jacobian(self.q0[None])[0]
         sv = np.linalg.svd(Cq[:, self.dep], compute_uv=False)
         if sv[-1] < 1e-10 * max(sv[0], 1.0):
@@ -569,11 +571,11 @@ class PlanarMultibodySolver:
         if method == 'partitioned':
             Cinv, T = self._partition(Cq) if partition is None else partition
             g = np.einsum('nij,nj->ni', Cinv, rhs_c)
-            m_dep = self.mass_diag[self.dep]
-            f_dep = Q[:, self.dep] - m_dep * g  # (Q - M G)_dep
+            m_dep, Q_dep = self._mass_dep, Q[:, self.dep]
+            f_dep = Q_dep - m_dep * g  # (Q - M G)_dep
             if self.dof == 1:
                 t = T[:, :, 0]
-                i = int(self.ind[0])
+                i = self._ind0
                 qdd_ind = ((Q[:, i] + np.einsum('ni,ni->n', t, f_dep))
                            / (self.mass_diag[i] + (t * t) @ m_dep))[:, None]
                 qdd_dep = t * qdd_ind + g
@@ -586,7 +588,7 @@ class PlanarMultibodySolver:
             qdd = np.empty((N, n))
             qdd[:, self.ind] = qdd_ind
             qdd[:, self.dep] = qdd_dep
-            lam = np.einsum('nji,nj->ni', Cinv, Q[:, self.dep] - m_dep * qdd_dep)
+            lam = np.einsum('nji,nj->ni', Cinv, Q_dep - m_dep * qdd_dep)
             if not np.isfinite(np.add.reduce(lam, axis=None)):
                 _finite(Cq, np.concatenate([Q, rhs_c], axis=1), what)
             return qdd, lam
@@ -616,14 +618,14 @@ class PlanarMultibodySolver:
             if kept[0] is Cq:
                 return kept[1], kept[2]
         try:
-            Cinv = np.linalg.inv(Cq.take(self.dep, 2))
+            Cinv = _lapack_inv(Cq.take(self.dep, 2))
         except np.linalg.LinAlgError:
             _finite(Cq, Cq[:, :, 0], 'constraint Jacobian')
             raise MultibodyError('singular constraint Jacobian C_q,dep: the mechanism is in '
                                  'a singular configuration') from None
-        T = -(Cinv @ Cq.take(self.ind, 2))
-        if not np.isfinite(np.add.reduce(T, axis=None)):
-            _finite(Cq, Cq[:, :, 0], 'constraint Jacobian')
+        i = self._ind0
+        C_ind = Cq[:, :, i:i + 1] if self.dof == 1 else Cq.take(self.ind, 2)
+        T = -(Cinv @ C_ind)  # (a non-finite C_q: found by the users of T)
         self.calls['factorizations'] += 1
         if frozen(Cq):
             self._kept_partition = [(Cq, freeze(Cinv), freeze(T)),
@@ -862,7 +864,7 @@ class PlanarMultibodySolver:
                     f'moves {ratio[worst]:.3g} times faster than at its reference pose; this '
                     'is the edge of its range of motion')
         if self.dof == 1:
-            qd_dep = T[:, :, 0] * qd[:, self.ind]
+            qd_dep = T[:, :, 0] * qd[:, self._ind0, None]
         else:
             qd_dep = np.einsum('nij,nj->ni', T, qd[:, self.ind])
         nu = self._nu(self._drives(motion, N), N) if motion else None
@@ -973,10 +975,11 @@ class PlanarMultibodySolver:
                 if np.max(y[rows], initial=0.0) > 0.1 * np.max(y)]
 
 
-try:  # the gufunc behind np.linalg.solve, without its argument handling (small systems)
+try:  # the gufuncs behind np.linalg.solve and .inv, without their argument handling (small
+    # systems, where that handling costs as much as the factorization)
     from numpy.linalg import _umath_linalg
     from numpy.linalg._linalg import _raise_linalgerror_singular
-    _solve = _umath_linalg.solve
+    _solve, _inv = _umath_linalg.solve, _umath_linalg.inv
     try:  # np.linalg.solve's error state, made once
         from numpy._core._ufunc_config import _extobj_contextvar, _make_extobj
         _SOLVE_ERRORS = _make_extobj(call=_raise_linalgerror_singular, invalid='call',
@@ -988,13 +991,25 @@ try:  # the gufunc behind np.linalg.solve, without its argument handling (small 
                 return _solve(A, b, signature='dd->d')
             finally:
                 _extobj_contextvar.reset(token)
+
+        def _lapack_inv(A: np.ndarray) -> np.ndarray:
+            token = _extobj_contextvar.set(_SOLVE_ERRORS)
+            try:
+                return _inv(A, signature='d->d')
+            finally:
+                _extobj_contextvar.reset(token)
     except (ImportError, AttributeError, TypeError):  # pragma: no cover - NumPy < 2
         def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
             with np.errstate(call=_raise_linalgerror_singular, invalid='call',
                              over='ignore', divide='ignore', under='ignore'):
                 return _solve(A, b, signature='dd->d')
+
+        def _lapack_inv(A: np.ndarray) -> np.ndarray:
+            with np.errstate(call=_raise_linalgerror_singular, invalid='call',
+                             over='ignore', divide='ignore', under='ignore'):
+                return _inv(A, signature='d->d')
 except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
-    _lapack_solve = np.linalg.solve
+    _lapack_solve, _lapack_inv = np.linalg.solve, np.linalg.inv
 
 
 def freeze(a: np.ndarray) -> np.ndarray:
