@@ -1,11 +1,12 @@
 """Benchmark: the dynamic queries of one finite-difference Jacobian at one remembered
-state, with the module's kept Schur complement and γ against both computed afresh.
+state, with the module's kept partitioning (C_q,dep⁻¹ and the tangent) and γ against both
+computed afresh.
 
     python benchmarks/bench_fd_queries.py [--states 960] [--repeat 15]
 
 What ``SuspensionDynamicsComp.compute_partials`` asks of a ground-mounted module at one
 state: the base loads, then z_M, v_M, F_T, k_S and c_S each perturbed (the state, so
-C_q and γ, unchanged). "afresh" clears the two kept values before every query. The
+C_q and γ, unchanged). "afresh" clears the kept values before every query. The
 results are checked to be bit for bit the same; wall-time medians, interleaved.
 """
 from __future__ import annotations
@@ -28,7 +29,7 @@ def queries(mod: SuspensionModule, z, v, loads, keep: bool):
     out = None
     for args in loads:
         if not keep:
-            mod.solver._last_schur = None
+            mod.solver._kept_partition = []
             mod._last_gamma = None
         out = mod.dynamics(mod.kinematics(z, v).state, *args)
     return out
