@@ -145,7 +145,9 @@ def table_markdown(study: dict[str, Any]) -> str:
             if st:
                 calls = st.get('multibody_calls') or {}
                 mbd = (f"{calls.get('augmented', 0)} augmented solves (eq. 11), "
-                       f"{calls.get('positions', 0)} position analyses") if calls else '—'
+                       f"{calls.get('positions', 0)} position analyses"
+                       + (f", {calls['factorizations']} factorizations of C_q,dep (one per "
+                          'pose)' if 'factorizations' in calls else '')) if calls else '—'
                 lines.append(
                     f"| {fid} | {st['success']} | {st['status']} | {st['iterations']} | "
                     f"{st['function_evaluations']} / {st['gradient_evaluations']} | "
