@@ -87,8 +87,8 @@ def test_module_dynamics_is_the_general_route(mechanism, N):
 
 @pytest.mark.parametrize('mechanism', MECHANISMS)
 def test_dynamics_at_remembered_states_equal_fresh_modules_bit_for_bit(mechanism):
-    """The Schur complement and γ kept for the last remembered state (what the finite
-    differences query again and again) are never stale: a sequence of queries on one
+    """The partitioning (C_q,dep⁻¹, the tangent) and γ kept for remembered states (what
+    the finite differences query again and again) are never stale: a sequence of queries on one
     module equals each query on a module of its own, bit for bit. The sequence: new
     loads at the same state, a new rate at the same pose (C_q kept, γ not), a new pose,
     then back to the first state."""

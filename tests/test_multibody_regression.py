@@ -38,7 +38,7 @@ def test_refactored_solver_reproduces_the_recorded_outputs(name):
     print(f'\n{name}: largest relative difference {max(worst.values()):.1e} '
           f'({max(worst, key=worst.get)})')
     # a time-marched trajectory (adaptive steps) amplifies rounding-level changes of the
-    # linear algebra: the Schur complement's inverse applied as a product instead of an
-    # LU solve per query moved the Baumgarte simulation of one linkage by 4.6e-10
+    # linear algebra: eq. 11 by coordinate partitioning instead of the Schur complement's
+    # LU solve moved the Baumgarte simulation of one linkage by 5.1e-10
     bad = {k: v for k, v in worst.items() if v > (2e-9 if k.startswith('sim_') else 1e-10)}
     assert not bad, bad
