@@ -724,8 +724,9 @@ class PlanarMultibodySolver:
     def positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None,
                   motion: Motion | None = None) -> np.ndarray:
         """All coordinates (N, n) consistent with the independent ones (N, dof): Newton on
-        ``C(q) = 0`` for the dependent coordinates, from ``guess`` or from the reference
-        pose moved along its tangent (a first-order prediction: one Newton step fewer).
+        ``C(q) = 0`` for the dependent coordinates, from ``guess``, else from the pose table
+        inside a suspension's travel range (:meth:`_pose_table`: converged already), else
+        from the reference pose moved along its tangent (a first-order prediction).
 
         Each state iterates until its own ``max |C| < newton_tol`` and is then left alone,
         so a state's result depends on its own inputs and start only (a state that starts

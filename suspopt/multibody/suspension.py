@@ -108,8 +108,9 @@ class SuspensionModule:
     returns that analysis instead of repeating it. Under finite differences this is most
     queries: perturbing the wheel-travel rate, the chassis motion, a force or a setting
     leaves the positions unchanged, and the dynamics query repeats the kinematics query's
-    state. A position analysis (Newton on ``C(q) = 0``) starts from the reference pose
-    unless the caller gives a guess, so every answer is a function of the query alone,
+    state. A position analysis (Newton on ``C(q) = 0``) starts from the solver's pose table
+    (or the reference pose moved along its tangent outside the travel range) unless the
+    caller gives a guess, so every answer is a function of the query alone,
     bit for bit, whatever was asked before.
     """
 
