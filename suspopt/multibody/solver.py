@@ -131,10 +131,10 @@ class PlanarMultibodySolver:
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
         self._inv_mass = 1.0 / self.mass_diag
-        #: (C_q, C_q,dep⁻¹, the tangent) of the last read-only C_q's, newest first
-        #: (:meth:`_partition`)
+        #: (C_q, (C_q,dep⁻¹, the tangent)) of the last read-only C_q's, newest first
+        #: (:meth:`_partition`), and (q, each joint group's Jacobian blocks) of the last
+        #: read-only q's (:meth:`_joint_jacobians`); see :func:`_keep`
         self._kept_partition: list[tuple] = []
-        #: (q, each joint group's Jacobian blocks) of the last read-only q's
         self._kept_joint_jacobians: list[tuple] = []
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
@@ -614,9 +614,9 @@ class PlanarMultibodySolver:
         last :data:`KEPT_POSES` read-only ``C_q``'s (remembered poses, which cannot change
         in place): the finite differences query the same pose again and again and get
         these bit for bit as computed afresh, one inversion per pose."""
-        for kept in self._kept_partition:
-            if kept[0] is Cq:
-                return kept[1], kept[2]
+        known = _kept(self._kept_partition, Cq)
+        if known is not None:
+            return known
         try:
             Cinv = _lapack_inv(Cq.take(self.dep, 2))
         except np.linalg.LinAlgError:
@@ -627,10 +627,7 @@ class PlanarMultibodySolver:
         C_ind = Cq[:, :, i:i + 1] if self.dof == 1 else Cq.take(self.ind, 2)
         T = -(Cinv @ C_ind)  # (a non-finite C_q: found by the users of T)
         self.calls['factorizations'] += 1
-        if frozen(Cq):
-            self._kept_partition = [(Cq, freeze(Cinv), freeze(T)),
-                                    *self._kept_partition[:KEPT_POSES - 1]]
-        return Cinv, T
+        return _keep(self._kept_partition, Cq, (Cinv, T))
 
     def reactions(self, q: np.ndarray, lam: np.ndarray,
                   jacobians: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
@@ -650,15 +647,12 @@ class PlanarMultibodySolver:
         """Each joint group's Jacobian blocks ``∂C/∂q_b`` at ``q`` (what its reactions
         take), kept for the last :data:`KEPT_POSES` read-only ``q``'s: the reactions of a
         remembered pose are products only, bit for bit as computed afresh."""
-        for kept in self._kept_joint_jacobians:
-            if kept[0] is q:
-                return kept[1]
+        known = _kept(self._kept_joint_jacobians, q)
+        if known is not None:
+            return known
         qe = self._ext(q)
-        jacs = tuple(g.jacobian(qe) for g in self.joint_groups)
-        if frozen(q):
-            self._kept_joint_jacobians = [(q, tuple(freeze(j) for j in jacs)),
-                                          *self._kept_joint_jacobians[:KEPT_POSES - 1]]
-        return jacs
+        return _keep(self._kept_joint_jacobians, q,
+                     tuple(g.jacobian(qe) for g in self.joint_groups))
 
     def joint_reactions(self, lam: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Force each of the mechanism's joints applies on its first body, global axes,
@@ -762,9 +756,11 @@ class PlanarMultibodySolver:
             # the pose table where it has the pose, the reference's tangent elsewhere
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             table = self._pose_spline(q_ind[:, 0])
-            inside = ~np.isnan(table[:, 0])
-            q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
-            q[np.ix_(inside, self.dep)] = table[inside]
+            outside = np.isnan(table[:, 0])
+            if outside.any():
+                table[outside] = (self.q0[self.dep] + (q_ind[outside] - self.q0[self.ind])
+                                  @ self._tangent0.T)
+            q[:, self.dep] = table
         elif guess is None:  # the reference pose moved along its tangent
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
@@ -1011,6 +1007,24 @@ try:  # the gufuncs behind np.linalg.solve and .inv, without their argument hand
                 return _inv(A, signature='d->d')
 except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
     _lapack_solve, _lapack_inv = np.linalg.solve, np.linalg.inv
+
+
+def _kept(memory: list[tuple], key: np.ndarray):
+    """What :func:`_keep` kept for the array ``key`` itself (by identity), or None."""
+    for k, value in memory:
+        if k is key:
+            return value
+    return None
+
+
+def _keep(memory: list[tuple], key: np.ndarray, value: tuple) -> tuple:
+    """``value`` (a tuple of arrays computed from ``key``), kept newest first in
+    ``memory`` (at most :data:`KEPT_POSES`) if ``key`` cannot change (:func:`frozen`), its
+    arrays then read-only too."""
+    if frozen(key):
+        value = tuple(freeze(a) for a in value)
+        memory[:] = [(key, value), *memory[:KEPT_POSES - 1]]
+    return value
 
 
 def freeze(a: np.ndarray) -> np.ndarray:
