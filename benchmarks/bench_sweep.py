@@ -9,14 +9,18 @@ defaults: default car and road, `reference` normalization, 80 x 5 grid), Latin-h
 starts over the design box. Serial: `run_task` on each task's plain description in this
 process, one after the other (the same function a worker runs, writing the same result
 and recorder files). Sweep: `run_sweep` on a LocalCluster, end to end (cluster start and
-shutdown included). Engine overhead per task: (a) the sweep's worker-seconds not spent in
-tasks, per task (b) the same sweep of no-op tasks through the engine, its run time per
-task; each against one optimization (the serial median).
+shutdown included). Bare processes: the same tasks on as many forked processes of this
+one (a ``multiprocessing`` pool, one task at a time each, no Dask): what this machine's
+cores give without any engine, the ceiling of the sweep's ratio. Engine overhead per
+task: (a) the sweep's worker-seconds not spent in tasks, per task (b) the same sweep of
+no-op tasks through the engine, its run time per task; each against one optimization
+(the serial median).
 """
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing as mp
 import os
 import statistics
 import sys
@@ -36,6 +40,12 @@ def _sweep_file(root: Path, n: int, segments: int) -> Path:
     path.write_text('study = "study.toml"\nfidelity = "low"\n'
                     f'[multistart]\nn = {n}\nseed = 0\nmethod = "lhs"\n')
     return path
+
+
+def _one_thread() -> None:
+    """A bare process's BLAS/OpenMP pools at one thread, as a sweep worker's."""
+    from threadpoolctl import threadpool_limits
+    threadpool_limits(1)
 
 
 def _records(out: Path) -> list[dict]:
@@ -68,6 +78,13 @@ def main() -> int:
         assert all(r['state'] == 'done' for r in serial), [r['error'] for r in serial]
         serial_times = [r['wall_time_s'] for r in serial]
 
+        payloads = [task.payload(root / 'bare', None) for task in sweep.tasks]
+        t = time.perf_counter()
+        with mp.get_context('fork').Pool(args.workers, initializer=_one_thread) as pool:
+            bare = list(pool.imap_unordered(run_task, payloads, chunksize=1))
+        bare_wall = time.perf_counter() - t
+        assert all(r['state'] == 'done' for r in bare), [r['error'] for r in bare]
+
         sweeps = {}
         for start in starts:
             t = time.perf_counter()
@@ -85,6 +102,9 @@ def main() -> int:
     print(f'\nserial, one process: {serial_wall:.2f} s ({len(serial)} tasks; median task '
           f'{one:.3f} s, min {min(serial_times):.3f}, max {max(serial_times):.3f}); CPU '
           f"time per task: median {statistics.median(r['cpu_time_s'] for r in serial):.3f} s")
+    print(f'bare processes, {args.workers} forked (no engine): {bare_wall:.2f} s; task '
+          f"times median {statistics.median(r['wall_time_s'] for r in bare):.3f} s; "
+          f'throughput ratio {serial_wall / bare_wall:.2f}x (the ceiling on this machine)')
     for start, (par, par_wall, par_recs) in sweeps.items():
         par_times = [r['wall_time_s'] for r in par_recs]
         run_s = par.timings['run_s']
@@ -98,7 +118,8 @@ def main() -> int:
               f'sum {sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s); CPU time '
               f"per task: median {statistics.median(r['cpu_time_s'] for r in par_recs):.3f} s")
         print(f'  throughput ratio: {serial_wall / par_wall:.2f}x end to end, '
-              f'{serial_wall / run_s:.2f}x while the tasks run (target >= 1.8x)')
+              f'{serial_wall / run_s:.2f}x while the tasks run (target >= 1.8x); '
+              f'{bare_wall / par_wall:.2f} of the bare processes\' throughput')
         print(f'  idle worker time per task {idle * 1e3:.1f} ms = {100 * idle / one:.1f} % '
               'of one optimization')
     noop_per_task = noop.timings['run_s'] / len(sweep.tasks)
