@@ -204,9 +204,9 @@ def _fail_message(res: dict[str, Any]) -> None:
 
 
 def cmd_optimize(args: argparse.Namespace) -> int:
+    config = _config(args)
     from suspopt.results import RunDirectory
     from suspopt.study import optimize
-    config = _config(args)
     start = _start(args, config)
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
@@ -218,8 +218,8 @@ def cmd_optimize(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from suspopt.study import evaluate
     config = _config(args)
+    from suspopt.study import evaluate
     design = parse_design(args.design, '--design', config) if args.design else None
     res = evaluate(config, args.fidelity, design, method=args.method,
                    verify=not args.no_verify)
@@ -239,9 +239,9 @@ def _jobs(text: str) -> int:
 
 
 def cmd_study(args: argparse.Namespace) -> int:
+    config = _config(args)
     from suspopt.results import RunDirectory
     from suspopt.study import StepFailed, run_study
-    config = _config(args)
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log(f'two-step study; results in {out.path}')
@@ -260,10 +260,10 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_coupling(args: argparse.Namespace) -> int:
+    config = _config(args)
     from suspopt.coupling import run_coupling
     from suspopt.results import RunDirectory
     from suspopt.study import StepFailed
-    config = _config(args)
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log('the coupling assumption: two-step studies with the frame on the ground and on '
@@ -346,10 +346,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_robust(args: argparse.Namespace) -> int:
+    config = _config(args)
     from suspopt.results import RunDirectory
     from suspopt import report
     from suspopt.robust import run_robust
-    config = _config(args)
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log(f'robust design of the {args.fidelity}-fidelity model; results in {out.path}')

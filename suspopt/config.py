@@ -36,7 +36,7 @@ from typing import Any
 
 from suspopt.errors import ConfigError
 from suspopt.models.layout import VehicleLayout, full_car, half_car
-from suspopt.models.settings import DESIGN_UNITS, design_kind  # noqa: F401 (re-exported)
+from suspopt.models.design import DESIGN_UNITS, design_kind  # noqa: F401 (re-exported)
 from suspopt.road import PROFILES, TWO_TRACKS, RoadProfile, make_road, profile_fields
 
 MODELS = ('half_car', 'full_car')
@@ -720,8 +720,9 @@ def _semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
     op = cfg.optimizer
     if not 0 <= op.print_level <= 12:
         errs.add('optimizer.print_level', f'must be 0..12 (IPOPT), got {op.print_level}')
-    from suspopt.driver import ipopt_option_problems
-    errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
+    if op.options:  # checked on IPOPT itself (the driver's imports: only when needed)
+        from suspopt.driver import ipopt_option_problems
+        errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
     if tr.initial_guess not in ('auto', 'simulate', 'zero'):
         errs.add('transcription.initial_guess', f"must be 'auto', 'simulate' or 'zero', "
                  f'got {tr.initial_guess!r}')

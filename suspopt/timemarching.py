@@ -22,7 +22,7 @@ from scipy.integrate import solve_ivp
 from suspopt.config import ConfigError, Scenario, StudyConfig
 from suspopt.errors import ModelError
 from suspopt.models import equations as eq
-from suspopt.models.settings import corner_of_design
+from suspopt.models.design import corner_of_design
 from suspopt.multibody.suspension import RESPONSE
 from suspopt.road import road_tracks
 from suspopt.trajectory import Trajectory

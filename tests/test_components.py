@@ -19,9 +19,10 @@ from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotat
 from suspopt.models.objective import (ObjectiveIntegrandComp, ObjectiveQuadratureComp,
                                       ScenarioObjectiveComp, WeightedObjectiveComp,
                                       WorstCaseGapComp)
+from suspopt.models.road_input import RoadInputComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
-from suspopt.road import (ISO8608_CLASSES, CosineBumps, ISO8608Road, RoadInputComp,
+from suspopt.road import (ISO8608_CLASSES, CosineBumps, ISO8608Road,
                           SmoothStep, road_tracks)
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
 

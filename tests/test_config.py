@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 import tomllib
 
 import numpy as np
@@ -212,3 +214,21 @@ def test_csv_road_reproduces_two_bumps(tmp_path):
     a = evaluate(base, 'low', design, method='time-marching', scales=scales)
     b = evaluate(cfg, 'low', design, method='time-marching', scales=scales)
     assert abs(b['objective'] / a['objective'] - 1.0) < 1e-6
+
+
+def test_a_bad_study_file_is_refused_before_the_heavy_imports(tmp_path):
+    """A wrong value is refused (exit 2, naming the key) by the study file's own checks,
+    before OpenMDAO, Dymos, IPOPT, Matplotlib or Dask are imported: the user waits for
+    none of them (fails if the configuration imports a component or the driver)."""
+    bad = tmp_path / 'bad.toml'
+    bad.write_text('[vehicle]\nchassis_mass = -3\n')
+    script = ('import sys\nfrom suspopt.cli import main\n'
+              f"code = main(['optimize', '--fidelity', 'low', '--config', {str(bad)!r}])\n"
+              "heavy = [m for m in ('openmdao.api', 'openmdao.core', 'dymos', 'cyipopt', 'matplotlib',"
+              " 'distributed')"
+              ' if m in sys.modules]\n'
+              'print(code, heavy)\n')
+    out = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                         timeout=120)
+    assert out.stdout.strip() == '2 []', out.stdout + out.stderr
+    assert 'vehicle.chassis_mass' in out.stderr

@@ -26,7 +26,7 @@ from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotat
 from suspopt.models.objective import ObjectiveIntegrandComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
-from suspopt.road import RoadInputComp
+from suspopt.models.road_input import RoadInputComp
 
 
 @dataclass(frozen=True)
