@@ -9,8 +9,10 @@ import pytest
 from scipy.optimize import minimize
 
 from suspopt.transcription.problem import VehicleProblem
-from suspopt.study import evaluate, objective_value, optimize
+from suspopt.study import evaluate, optimize
 from suspopt.timemarching import simulate
+
+from half_car_by_hand import objective_terms_by_hand  # noqa: E402 (tests/ is on the path)
 
 pytestmark = pytest.mark.slow
 
@@ -92,17 +94,20 @@ def test_total_sparsity_holds_away_from_start(cfg, scales):
 
 
 def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_optimum):
-    """Independent route: SciPy L-BFGS-B on the time-marching objective (SciPy's own
-    adaptive integrator, finite-difference gradients), started from the box centre, in the
-    same bounds. Designs within 1 %, objectives within 0.1 %."""
+    """Independent route: SciPy L-BFGS-B (finite-difference gradients) on the objective of
+    the half car written out by hand as a state space and marched by SciPy's DOP853
+    (``half_car_by_hand``: no code of suspopt's models or time marching), started
+    halfway from the box centre, in the same bounds. Designs within 0.2 %, objectives
+    within 0.02 %."""
     names = cfg.design_names()
     lo = np.array([cfg.design[n].lower for n in names])
     hi = np.array([cfg.design[n].upper for n in names])
+    s = scales[0]
+    w = cfg.objective.weights
 
     def f(u):
-        x = dict(zip(names, lo + u * (hi - lo)))
-        tr = simulate(cfg, 'low', x, t_eval=np.array([0.0, 5.0]), rtol=1e-9, atol=1e-12)
-        return objective_value(cfg, dict(zip(cfg.terms(), tr.J)), scales[0])
+        J = objective_terms_by_hand(cfg, dict(zip(names, lo + u * (hi - lo))))
+        return float(sum(w[t] * J[k] / s[t] for k, t in enumerate(cfg.terms())))
 
     u_star = (np.array([low_optimum['design'][n] for n in names]) - lo) / (hi - lo)
     # start a fair distance from the collocation optimum, halfway from the box centre
@@ -112,8 +117,12 @@ def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_opt
     print(f'\nL-BFGS-B: {res.nit} iterations, {res.nfev} evaluations, {res.message}')
     x_scipy = lo + res.x * (hi - lo)
     x_ipopt = np.array([low_optimum['design'][n] for n in names])
-    np.testing.assert_allclose(x_ipopt, x_scipy, rtol=1e-2)
-    assert abs(low_optimum['objective'] / res.fun - 1.0) < 1e-3
+    f_diff = abs(low_optimum['objective'] / res.fun - 1.0)
+    print(f'designs differ by {np.max(np.abs(x_ipopt / x_scipy - 1)):.2e}, f by {f_diff:.2e}')
+    # the collocation's own error on the 80 x 5 grid: ~3e-4 in the design, ~2e-5 in f (a
+    # tyre rate 3 % off in the hand-written model moves the design 10 %, f 1 %)
+    np.testing.assert_allclose(x_ipopt, x_scipy, rtol=2e-3)
+    assert f_diff < 2e-4
 
 
 def test_iteration_limited_run_reports_failure(cfg, scales, tmp_path):

@@ -9,38 +9,15 @@ from suspopt.config import StudyConfig, config_from_dict
 from suspopt.road import wheel_road_inputs
 from suspopt.timemarching import reference_scales, simulate
 
+from half_car_by_hand import half_car_matrices  # noqa: E402 (tests/ is on the path)
+
 DESIGN = {'k_S1': 42000.0, 'k_S2': 21000.0, 'c_S1': 2800.0, 'c_S2': 2000.0}
-
-
-def _half_car_matrices(cfg: StudyConfig, x: dict[str, float]):
-    """State-space form of paper eqs. 5-10 written out by hand: y' = A y + B δ,
-    y = (z_C, θ, z_W1, z_W2, v_C, ω, v_W1, v_W2)."""
-    v = cfg.vehicle
-    M, I = v.chassis_mass, v.chassis_pitch_inertia
-    a = np.array([v.front.axle_position, v.rear.axle_position])
-    m = np.array([v.front.wheel_mass, v.rear.wheel_mass])
-    kT = np.array([v.front.tyre_stiffness, v.rear.tyre_stiffness])
-    k = np.array([x['k_S1'], x['k_S2']])
-    c = np.array([x['c_S1'], x['c_S2']])
-    # suspension deflection of axle i: z_Wi + a_i θ - z_C = D[i] @ (z_C, θ, z_W1, z_W2)
-    D = np.array([[-1.0, a[0], 1.0, 0.0], [-1.0, a[1], 0.0, 1.0]])
-    # generalized forces on (z_C, θ, z_W1, z_W2) from F_S1, F_S2: -D^T (virtual work)
-    Mass = np.diag([M, I, m[0], m[1]])
-    K = D.T @ np.diag(k) @ D + np.diag([0.0, 0.0, kT[0], kT[1]])
-    C = D.T @ np.diag(c) @ D
-    A = np.zeros((8, 8))
-    A[:4, 4:] = np.eye(4)
-    A[4:, :4] = -np.linalg.solve(Mass, K)
-    A[4:, 4:] = -np.linalg.solve(Mass, C)
-    B = np.zeros((8, 2))
-    B[4:, :] = np.linalg.solve(Mass, np.array([[0, 0], [0, 0], [kT[0], 0], [0, kT[1]]]))
-    return A, B
 
 
 def test_half_car_matches_hand_written_state_space():
     """The model's equations (suspopt.models.equations) reproduce M q'' + C q' + K q = F."""
     cfg = StudyConfig()
-    A, B = _half_car_matrices(cfg, DESIGN)
+    A, B = half_car_matrices(cfg, DESIGN)
     L = cfg.vehicle.wheelbase
 
     def rhs(t, y):
