@@ -284,11 +284,11 @@ def cmd_coupling(args: argparse.Namespace) -> int:
 
 
 def cmd_pareto(args: argparse.Namespace) -> int:
-    from suspopt.pareto import run_pareto
-    from suspopt.results import RunDirectory
     if args.points < 2:
         raise ConfigError(f'--points: need at least 2, got {args.points}')
     config = _config(args)
+    from suspopt.pareto import run_pareto
+    from suspopt.results import RunDirectory
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
         log(f'Pareto front of the {args.fidelity}-fidelity model, {args.points} points; '
@@ -315,10 +315,10 @@ def cmd_pareto(args: argparse.Namespace) -> int:
 def cmd_compare(args: argparse.Namespace) -> int:
     """The topology study (suspopt.compare): every topology's mixed-fidelity optimum, the
     cross table of every optimum in every model, kinematic curves."""
+    config = _config(args)
     from suspopt.compare import exit_code, parse_topologies, run_compare, topology_config
     from suspopt.results import RunDirectory
     from suspopt.study import StepFailed
-    config = _config(args)
     for front, rear in parse_topologies(args.mechanisms):  # bad input before any work
         topology_config(config, front, rear)
     with RunDirectory(args.out, args.overwrite) as out:

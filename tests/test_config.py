@@ -218,17 +218,22 @@ def test_csv_road_reproduces_two_bumps(tmp_path):
 
 def test_a_bad_study_file_is_refused_before_the_heavy_imports(tmp_path):
     """A wrong value is refused (exit 2, naming the key) by the study file's own checks,
-    before OpenMDAO, Dymos, IPOPT, Matplotlib or Dask are imported: the user waits for
-    none of them (fails if the configuration imports a component or the driver)."""
+    before OpenMDAO, Dymos, IPOPT, Matplotlib or Dask are imported, by every command that
+    reads a study file: the user waits for none of them (fails if the configuration
+    imports a component or the driver, or a command imports its work first)."""
     bad = tmp_path / 'bad.toml'
     bad.write_text('[vehicle]\nchassis_mass = -3\n')
+    commands = [['optimize', '--fidelity', 'low'], ['evaluate', '--fidelity', 'low'],
+                ['study'], ['coupling'], ['pareto', '--fidelity', 'low'], ['compare'],
+                ['robust', '--fidelity', 'low']]
     script = ('import sys\nfrom suspopt.cli import main\n'
-              f"code = main(['optimize', '--fidelity', 'low', '--config', {str(bad)!r}])\n"
-              "heavy = [m for m in ('openmdao.api', 'openmdao.core', 'dymos', 'cyipopt', 'matplotlib',"
-              " 'distributed')"
-              ' if m in sys.modules]\n'
-              'print(code, heavy)\n')
+              "heavy = ('openmdao.api', 'openmdao.core', 'dymos', 'cyipopt', 'matplotlib', "
+              "'distributed')\n"
+              f'for cmd in {commands!r}:\n'
+              f"    code = main(cmd + ['--config', {str(bad)!r}])\n"
+              "    print(cmd[0], code, *[m for m in heavy if m in sys.modules])\n")
     out = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
                          timeout=120)
-    assert out.stdout.strip() == '2 []', out.stdout + out.stderr
-    assert 'vehicle.chassis_mass' in out.stderr
+    lines = out.stdout.split('\n')[:-1]
+    assert lines == [f'{c[0]} 2' for c in commands], out.stdout + out.stderr
+    assert out.stderr.count('vehicle.chassis_mass') == len(commands)

@@ -8,7 +8,7 @@ from suspopt.config import StudyConfig, config_from_dict
 from suspopt.road import wheel_road_inputs
 from suspopt.timemarching import reference_scales, simulate
 
-from half_car_by_hand import half_car_matrices, states_by_hand  # noqa: E402 (tests/ is on the path)
+from half_car_by_hand import half_car_matrices, states_by_hand  # tests/ is on the path
 
 DESIGN = {'k_S1': 42000.0, 'k_S2': 21000.0, 'c_S1': 2800.0, 'c_S2': 2000.0}
 
