@@ -190,3 +190,25 @@ def test_another_linkage_in_the_vehicle(cfg, scales):
     assert res['max_constraint_residual_m'] < 1e-10
     parallelogram = simulate(cfg, 'mixed', design, t_eval=np.array([0.0, 5.0])).J
     assert np.max(np.abs(tm / parallelogram - 1.0)) > 0.05
+
+
+def test_the_recorder_keeps_no_multibody_module_in_its_metadata(cfg, scales, tmp_path):
+    """The case recorder's system metadata holds no VehicleSpec, multibody module or
+    phase ODE arguments (megabytes per system and per setup, with the modules' kept poses
+    and tables; nothing reads them back), and the recorded trajectory is still there."""
+    import openmdao.api as om
+
+    from suspopt.results import read_trajectory
+    small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=8))
+    path = tmp_path / 'mixed.sql'
+    with VehicleProblem(small, 'mixed', scales, recorder=path) as vp:
+        vp.problem.run_model()
+        vp.problem.record('check')
+    reader = om.CaseReader(str(path))
+    options = {name: set(opts) for name, opts in
+               reader.list_model_options(out_stream=None).items()}
+    assert 'traj.phases.s0.rhs_all.kinematics' in options  # the black boxes were recorded
+    holding = sorted(n for n, o in options.items() if {'spec', 'modules', 'ode_init_kwargs'} & o)
+    assert not holding, holding
+    assert read_trajectory(reader, 'check') is not None
+    assert path.stat().st_size < 5e6

@@ -64,7 +64,9 @@ class VehicleODE(om.Group):
 
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
-        self.options.declare('spec', types=VehicleSpec)
+        # not in the case recorder's metadata: it holds the multibody modules (their kept
+        # poses and tables), megabytes per system and per setup, which nothing reads back
+        self.options.declare('spec', types=VehicleSpec, recordable=False)
 
     def setup(self) -> None:
         nn, spec = self.options['num_nodes'], self.options['spec']

@@ -53,7 +53,7 @@ class NodewiseBlackBox(om.ExplicitComponent):
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
         self.options.declare('corners', types=int, default=1)
-        self.options.declare('modules', types=tuple,
+        self.options.declare('modules', types=tuple, recordable=False,
                              desc='the multibody suspension of every corner (the black box)')
         self.options.declare('fd_form', default='forward', values=('forward', 'central'))
         self.options.declare('fd_step', default=1e-6, types=float,

@@ -67,6 +67,8 @@ def build_phase(spec: VehicleSpec, fidelity: str, scenario: Scenario) -> dm.Phas
     phase = dm.Phase(ode_class=ode, ode_init_kwargs={'spec': spec},
                      transcription=dm.Radau(num_segments=scenario.segments,
                                             order=scenario.order, compressed=True))
+    # the ODE's spec (with the multibody modules) stays out of the recorder's metadata
+    phase.recording_options['options_excludes'] = ['ode_init_kwargs']
     phase.set_time_options(fix_initial=True, fix_duration=True, units='s', targets=['time'],
                            duration_val=scenario.horizon)
     for name, rate, units, ref, shape in state_defs(spec):
