@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from suspopt.figures import corner_labels, plot_set, road_figure
+from suspopt.figures import corner_labels, plot_set, road_figure, save_figure
 from suspopt.models.objective import term_units
 from suspopt.results import read_json, read_trajectory, write_text
 
@@ -191,7 +191,7 @@ def _kinematics_figure(path: Path, kin: dict[str, Any]) -> Path:
         ax.set_xlabel('wheel travel [mm] (up: bump)')
     axes[0, 0].legend(fontsize=8)
     fig.suptitle('Kinematic curves of the linkages (front view)')
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -229,7 +229,7 @@ def _cross_figure(path: Path, data: dict[str, Any]) -> Path:
     ax.set_title("f of every design in every model; colour: excess over the model's own "
                  'optimum [%]', fontsize=10)
     fig.colorbar(im, ax=ax, label='f / f* − 1 [%]')
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 

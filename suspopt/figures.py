@@ -3,6 +3,9 @@
 under every wheel (paper Figure 3), read from a results directory's study description."""
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +18,23 @@ CHASSIS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
            ('thdd_C', r'$\ddot\theta_C$ [rad/s$^2$]', 'chassis pitch acceleration'),
            ('phidd_C', r'$\ddot\varphi_C$ [rad/s$^2$]', 'chassis roll acceleration'))
 AXLE_NAMES = {'1': 'front', '2': 'rear'}
+
+
+def save_figure(fig: Any, path: str | Path, dpi: int = 110, **savefig: Any) -> Path:
+    """Write ``fig`` to ``path`` atomically (a temporary file in the same folder, then
+    renamed over it): a run stopped or failing while it writes never leaves a partial
+    image. ``savefig``: further arguments of Matplotlib's ``Figure.savefig``."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f'.{path.stem}-', suffix=path.suffix)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi, **savefig)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return path
 
 
 def panel_specs(terms: list[str]) -> list[tuple[str, str, str]]:
@@ -79,7 +99,7 @@ def plot_set(path: Path, title: str, curves: list[tuple[str, Trajectory, dict]],
         for ax, (key, _, _) in zip(axes, panels):
             plot_curves(ax, key, tr.t, tr.values, labels, label, style)
     axes[0].legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -119,7 +139,7 @@ def road_figure(path: Path, out: Path, config_dict: dict[str, Any]) -> Path:
     ax.set_title(f"Road input ({profile}, v = {speed:g} m/s) — paper Fig. 3")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 

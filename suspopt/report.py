@@ -30,7 +30,7 @@ from suspopt.models.objective import term_units
 from suspopt.results import (COUPLING_DESIGN_LABELS, COUPLING_DESIGNS, COUPLING_MODEL_LABELS,
                              STUDY_DESIGNS, read_json, read_trajectory, write_text)
 from suspopt.figures import (corner_labels, panel_figure, panel_specs, plot_curves, plot_set,
-                             road_figure)
+                             road_figure, save_figure)
 
 DESIGN_LABELS = dict(zip(STUDY_DESIGNS, ('Initial guess', 'Low-fidelity optimum',
                                          'Mixed-fidelity optimum')))
@@ -285,7 +285,7 @@ def render_robust(out_dir: str | Path) -> list[Path]:
            title='Every optimum on every scenario (lower is better)')
     ax.grid(alpha=0.3, axis='y')
     ax.legend(fontsize=8)
-    fig.savefig(figs / 'robustness.png', dpi=110)
+    save_figure(fig, figs / 'robustness.png', dpi=110)
     plt.close(fig)
     return [out / 'table.md', figs / 'robustness.png']
 
@@ -311,7 +311,7 @@ def _convergence_figure(path: Path, runs: dict[str, dict[str, Any]]) -> Path:
     for a in (a1, a2):
         a.grid(alpha=0.3)
         a.legend(fontsize=9)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -385,7 +385,7 @@ def render_pareto(out_dir: str | Path) -> list[Path]:
            title='Settings along the front', ylim=(-0.05, 1.05))
     a2.grid(alpha=0.3)
     a2.legend(fontsize=8)
-    fig.savefig(figs / 'pareto.png', dpi=110)
+    save_figure(fig, figs / 'pareto.png', dpi=110)
     plt.close(fig)
     return [out / 'table.md', figs / 'pareto.png']
 
@@ -513,7 +513,7 @@ def render_study(out: Path) -> list[Path]:
                     plot_curves(ax, sig, traj[fid, name].t, traj[fid, name].values, labels,
                                 f'{fid} fidelity, collocation nodes', style, marker=True)
             axes[0].legend(fontsize=7)
-            fig.savefig(figs / 'verification.png', dpi=110)
+            save_figure(fig, figs / 'verification.png', dpi=110)
             plt.close(fig)
             return figs / 'verification.png'
         jobs.append(verification_figure)
@@ -645,6 +645,6 @@ def render_coupling(out_dir: str | Path) -> list[Path]:
     a2.set_title('The designs')
     a2.legend(fontsize=7)
     path = figs / 'coupling.png'
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return [out / 'table.md', path]

@@ -818,6 +818,7 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
+    from suspopt.figures import save_figure
     rows = [(t, summary_row(t, records.get(t.name))) for t in sweep.tasks]
     rows = [(t, r) for t, r in rows if r['state'] == 'done' and r['objective'] is not None]
     written = []
@@ -842,10 +843,7 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
         fig.tight_layout()
         path = out / 'figures' / f'{_safe(axis)}.png'
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix='.png')
-        os.close(fd)
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
+        save_figure(fig, path, dpi=110)
         plt.close(fig)
         written.append(path)
     return written

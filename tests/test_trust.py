@@ -608,3 +608,25 @@ def test_nothing_a_user_receives_points_into_the_projects_shared_folder():
     files += [ROOT / 'README.md', ROOT / 'pyproject.toml']
     bad = [str(p.relative_to(ROOT)) for p in files if '../shared' in p.read_text()]
     assert not bad, f'"../shared" paths in {bad}'
+
+
+def test_a_figure_is_written_whole_or_not_at_all(tmp_path):
+    """Figures are saved atomically: a write that fails after the image file was opened
+    (here PIL's encoder, given a bad compression level; Matplotlib's own ``savefig``
+    leaves a 124-byte partial PNG in place of the old file) leaves the previous file as
+    it was and no temporary file; a good one replaces it with a whole PNG."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from suspopt.figures import save_figure
+    path = tmp_path / 'figure.png'
+    path.write_bytes(b'the previous figure')
+    fig, ax = plt.subplots()
+    ax.plot([0.0, 1.0])
+    with pytest.raises(TypeError):
+        save_figure(fig, path, pil_kwargs={'compress_level': 'not a number'})
+    assert path.read_bytes() == b'the previous figure' and os.listdir(tmp_path) == [path.name]
+    save_figure(fig, path)
+    plt.close(fig)
+    assert path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and os.listdir(tmp_path) == [path.name]
