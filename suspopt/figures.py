@@ -3,15 +3,12 @@
 under every wheel (paper Figure 3), read from a results directory's study description."""
 from __future__ import annotations
 
-import contextlib
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from suspopt.results import resolve_inputs
+from suspopt.results import atomic_path, resolve_inputs
 from suspopt.trajectory import Trajectory
 
 CHASSIS = (('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),
@@ -21,19 +18,12 @@ AXLE_NAMES = {'1': 'front', '2': 'rear'}
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 110, **savefig: Any) -> Path:
-    """Write ``fig`` to ``path`` atomically (a temporary file in the same folder, then
-    renamed over it): a run stopped or failing while it writes never leaves a partial
-    image. ``savefig``: further arguments of Matplotlib's ``Figure.savefig``."""
+    """Write ``fig`` to ``path`` atomically (:func:`suspopt.results.atomic_path`): a run
+    stopped or failing while it writes never leaves a partial image. ``savefig``: further
+    arguments of Matplotlib's ``Figure.savefig``."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f'.{path.stem}-', suffix=path.suffix)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi, **savefig)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip('.') or 'png', **savefig)
     return path
 
 

@@ -13,12 +13,13 @@
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -52,38 +53,54 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f'not JSON serializable: {type(obj).__name__}')
 
 
-def write_json(path: str | Path, data: Any) -> None:
-    """Write JSON atomically: a reader never sees a half-written file. A full or
-    unwritable disk is a :class:`RunError` naming the file."""
+def _new_file_mode() -> int:
+    """The permissions a new file gets in this process (0o666 less the umask)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+#: read once at import (reading the umask sets it, for a moment, in every thread)
+NEW_FILE_MODE = _new_file_mode()
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary file beside ``path`` to write to. Leaving the block gives it the
+    permissions of a newly created file (the umask's, not ``mkstemp``'s owner-only ones)
+    and renames it over ``path``, so a reader never sees a half-written file; an error
+    removes it and leaves ``path`` as it was. An OSError is a :class:`RunError` naming
+    ``path`` (a full or unwritable disk)."""
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + '.', suffix='.tmp')
+        os.close(fd)
     except OSError as err:
         raise RunError(f'cannot write {path}: {err.strerror}') from None
     try:
-        with os.fdopen(fd, 'w') as fh:
-            json.dump(data, fh, indent=2, default=_json_default)
-            fh.write('\n')
+        yield Path(tmp)
+        os.chmod(tmp, NEW_FILE_MODE)
         os.replace(tmp, path)
-    except OSError as err:
-        os.unlink(tmp)
-        raise RunError(f'cannot write {path}: {err.strerror}') from None
-    except BaseException:
-        os.unlink(tmp)
+    except BaseException as err:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(err, OSError):
+            raise RunError(f'cannot write {path}: {err.strerror}') from None
         raise
 
 
+def write_json(path: str | Path, data: Any) -> None:
+    """Write JSON atomically (:func:`atomic_path`)."""
+    text = json.dumps(data, indent=2, default=_json_default) + '\n'
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+
+
 def write_text(path: str | Path, text: str) -> None:
-    """Write a text file atomically (tables)."""
-    path = Path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
-        with os.fdopen(fd, 'w') as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except OSError as err:
-        raise RunError(f'cannot write {path}: {err.strerror}') from None
+    """Write a text file atomically (:func:`atomic_path`; tables)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
 
 
 def read_json(path: str | Path) -> dict[str, Any]:

@@ -63,7 +63,6 @@ import shutil
 import signal
 import socket
 import sys
-import tempfile
 import time
 import tomllib
 import traceback
@@ -583,25 +582,10 @@ def dask_setup(worker: Any) -> None:
 
 # ================================================================ output directory
 def atomic_write(path: Path, text: str) -> None:
-    """Write a text file atomically (temp file in the same directory + os.replace)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + '.', suffix='.tmp')
-    try:
-        with os.fdopen(fd, 'w', newline='') as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with _suppress():
-            os.unlink(tmp)
-        raise
-
-
-class _suppress:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return exc[0] is not None and issubclass(exc[0], OSError)
+    """Write a text file atomically (:func:`suspopt.results.atomic_path`)."""
+    from suspopt.results import atomic_path
+    with atomic_path(path) as tmp, open(tmp, 'w', newline='') as fh:
+        fh.write(text)
 
 
 def _write_json(path: Path, data: Any) -> None:

@@ -630,3 +630,33 @@ def test_a_figure_is_written_whole_or_not_at_all(tmp_path):
     save_figure(fig, path)
     plt.close(fig)
     assert path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and os.listdir(tmp_path) == [path.name]
+
+
+def test_results_are_written_atomically_with_the_usual_permissions(tmp_path):
+    """Every results file (JSON, tables, figures) gets the permissions a new file gets
+    here (0o666 less the umask: readable by the group on a shared cluster folder, not the
+    owner-only 0o600 of a temporary file), and a write that fails leaves the old file as
+    it was and no temporary file."""
+    import stat
+
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from suspopt.figures import save_figure
+    from suspopt.results import NEW_FILE_MODE, write_json, write_text
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert NEW_FILE_MODE == 0o666 & ~mask
+    fig, ax = plt.subplots()
+    ax.plot([0.0, 1.0])
+    paths = [tmp_path / 'a.json', tmp_path / 'b.md', tmp_path / 'c.png']
+    write_json(paths[0], {'x': 1})
+    write_text(paths[1], 'table')
+    save_figure(fig, paths[2])
+    plt.close(fig)
+    assert [stat.S_IMODE(p.stat().st_mode) for p in paths] == [NEW_FILE_MODE] * 3
+    with pytest.raises(TypeError):
+        write_text(paths[1], b'not text')
+    assert paths[1].read_text() == 'table'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['a.json', 'b.md', 'c.png']
