@@ -92,9 +92,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
 def write_json(path: str | Path, data: Any) -> None:
     """Write JSON atomically (:func:`atomic_path`)."""
-    text = json.dumps(data, indent=2, default=_json_default) + '\n'
-    with atomic_path(path) as tmp:
-        tmp.write_text(text)
+    with atomic_path(path) as tmp, open(tmp, 'w') as fh:
+        json.dump(data, fh, indent=2, default=_json_default)
+        fh.write('\n')
 
 
 def write_text(path: str | Path, text: str) -> None:
