@@ -825,9 +825,7 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
         _readable_y(ax, [r['objective'] for _, r in rows])
         ax.grid(alpha=0.3)
         fig.tight_layout()
-        path = out / 'figures' / f'{_safe(axis)}.png'
-        path.parent.mkdir(parents=True, exist_ok=True)
-        save_figure(fig, path, dpi=110)
+        path = save_figure(fig, out / 'figures' / f'{_safe(axis)}.png', dpi=110)
         plt.close(fig)
         written.append(path)
     return written
