@@ -1,4 +1,5 @@
 """Timing helpers shared by the benchmark scripts: medians over repeats, Markdown tables."""
+
 from __future__ import annotations
 
 import os
@@ -6,9 +7,10 @@ import platform
 import statistics
 import subprocess
 import tempfile
-from contextlib import contextmanager
 import time
-from typing import Any, Iterable
+from collections.abc import Iterable
+from contextlib import contextmanager
+from typing import Any
 
 
 def machine() -> str:
@@ -55,21 +57,23 @@ def table(rows: list[tuple[str, list[float]]], header=('quantity', 'median (minâ
 
 def git_revision() -> str:
     try:
-        return subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], capture_output=True,
-                              text=True, check=True).stdout.strip()
+        return subprocess.run(
+            ['git', 'rev-parse', '--short', 'HEAD'], capture_output=True, text=True, check=True
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return 'unknown'
 
 
-def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float],
-                   totals: str = 'auto') -> dict[str, Any]:
+def timed_optimize(
+    cfg, fidelity: str, scales, start: dict[str, float], totals: str = 'auto'
+) -> dict[str, Any]:
     """One optimization as `suspopt optimize` does it, timed by phase: setup (building the
     Dymos/OpenMDAO problem), guess (the starting trajectory, `transcription.initial_guess`),
     coloring
     (zero when cached), solve (IPOPT, coloring excluded) and their total. ``totals``: the
     driver's total-derivative method (``'solves'``: one OpenMDAO linear solve per color)."""
-    from suspopt.transcription.problem import VehicleProblem
     from suspopt.study import initial_guess
+    from suspopt.transcription.problem import VehicleProblem
 
     t0 = time.perf_counter()
     vp = VehicleProblem(cfg, fidelity, scales, totals=totals)
@@ -81,11 +85,21 @@ def timed_optimize(cfg, fidelity: str, scales, start: dict[str, float],
     reused0 = sum(m.reused for m in vp.modules.values())
     res = vp.solve()
     t3 = time.perf_counter()
-    out = {'setup': t1 - t0, 'guess': t2 - t1, 'coloring': res.times['coloring_s'],
-           'solve': t3 - t2 - res.times['coloring_s'], 'iterations': res.iterations,
-           'fevals': res.function_evaluations, 'gevals': res.gradient_evaluations,
-           'calls': res.multibody_calls, 'mbd_s': sum(m.time_s for m in vp.modules.values()) - mbd0,
-           'reused': sum(m.reused for m in vp.modules.values()) - reused0,
-           'design': res.design, 'f': res.objective, 'success': res.success, 'problem': vp}
+    out = {
+        'setup': t1 - t0,
+        'guess': t2 - t1,
+        'coloring': res.times['coloring_s'],
+        'solve': t3 - t2 - res.times['coloring_s'],
+        'iterations': res.iterations,
+        'fevals': res.function_evaluations,
+        'gevals': res.gradient_evaluations,
+        'calls': res.multibody_calls,
+        'mbd_s': sum(m.time_s for m in vp.modules.values()) - mbd0,
+        'reused': sum(m.reused for m in vp.modules.values()) - reused0,
+        'design': res.design,
+        'f': res.objective,
+        'success': res.success,
+        'problem': vp,
+    }
     out['total'] = out['setup'] + out['guess'] + out['solve']
     return out

@@ -9,6 +9,7 @@ pure-Python loop, in cache); ``optimize``: the low-fidelity optimization of the 
 case that ``benchmarks/bench_sweep.py`` runs (after a warm-up that fills the coloring
 cache). A sweep on Dask can reach at most about the ``optimize`` ratio over a serial run.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -22,7 +23,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import machine  # noqa: E402
 
-TASKS = {'spin': r'''
+TASKS = {
+    'spin': r"""
 import numpy as np
 a = np.random.default_rng(0).random((200, 200))
 for _ in range(1500):
@@ -31,20 +33,28 @@ for _ in range(1500):
 x = 0
 for i in range(3_000_000):
     x += i
-''', 'optimize': r'''
+""",
+    'optimize': r"""
 from suspopt.config import StudyConfig
 from suspopt.study import optimize
 optimize(StudyConfig(), 'low', verify=False)
-'''}
+""",
+}
 
 
 def _run(task: str, n: int) -> float:
     """Wall time of ``n`` copies of the task started together (child processes)."""
     env = dict(os.environ, OMP_NUM_THREADS='1', OPENBLAS_NUM_THREADS='1', MKL_NUM_THREADS='1')
     t0 = time.perf_counter()
-    procs = [subprocess.Popen([sys.executable, '-c', TASKS[task]], env=env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-             for _ in range(n)]
+    procs = [
+        subprocess.Popen(
+            [sys.executable, '-c', TASKS[task]],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        for _ in range(n)
+    ]
     for p in procs:
         if p.wait() != 0:
             raise SystemExit('bench_cores: the task failed')
@@ -57,8 +67,10 @@ def main() -> None:
     ap.add_argument('--processes', type=int, default=2)
     ap.add_argument('--repeat', type=int, default=3)
     a = ap.parse_args()
-    print(f'# parallel throughput of this machine, task {a.task!r} — {machine()}; '
-          f'{os.cpu_count()} CPUs')
+    print(
+        f'# parallel throughput of this machine, task {a.task!r} — {machine()}; '
+        f'{os.cpu_count()} CPUs'
+    )
     if a.task == 'optimize':
         _run(a.task, 1)  # warm-up: the coloring cache
     alone, together = [], []
@@ -66,8 +78,7 @@ def main() -> None:
         alone.append(_run(a.task, 1))
         together.append(_run(a.task, a.processes))
     t1, tn = statistics.median(alone), statistics.median(together)
-    print(f'one task alone: {t1:.2f} s (median of {a.repeat}; '
-          f'{min(alone):.2f}–{max(alone):.2f})')
+    print(f'one task alone: {t1:.2f} s (median of {a.repeat}; {min(alone):.2f}–{max(alone):.2f})')
     print(f'{a.processes} tasks at once: {tn:.2f} s ({min(together):.2f}–{max(together):.2f})')
     print(f'throughput ratio: {a.processes * t1 / tn:.2f}x (ideal {a.processes}x)')
 

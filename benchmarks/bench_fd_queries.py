@@ -9,6 +9,7 @@ state: the base loads, then z_M, v_M, F_T, k_S and c_S each perturbed (the state
 C_q and γ, unchanged). "afresh" clears the kept values before every query. The
 results are checked to be bit for bit the same; wall-time medians, interleaved.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,12 +42,19 @@ def main() -> None:
     ap.add_argument('--repeat', type=int, default=15)
     args = ap.parse_args()
     N = args.states
-    print(f'# one FD Jacobian\'s dynamic queries at one state, N = {N} — {machine()}, '
-          f'suspopt {git_revision()}\n')
+    print(
+        f"# one FD Jacobian's dynamic queries at one state, N = {N} — {machine()}, "
+        f'suspopt {git_revision()}\n'
+    )
     rng = np.random.default_rng(0)
     z, v = rng.uniform(-0.05, 0.05, N), rng.uniform(-0.5, 0.5, N)
-    base = [rng.uniform(-0.02, 0.02, N), rng.uniform(-0.2, 0.2, N), np.full(N, 3e4),
-            np.full(N, 2e3), rng.uniform(1e3, 3e3, N)]
+    base = [
+        rng.uniform(-0.02, 0.02, N),
+        rng.uniform(-0.2, 0.2, N),
+        np.full(N, 3e4),
+        np.full(N, 2e3),
+        rng.uniform(1e3, 3e3, N),
+    ]
     loads = [tuple(base)]
     for i, h in enumerate([1e-6, 1e-6, 3e4 * 1e-6, 2e3 * 1e-6, 1e-6]):
         pert = list(base)

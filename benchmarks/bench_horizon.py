@@ -11,6 +11,7 @@ reports its phases (reference scales by time marching, problem setup, sparsity a
 coloring, starting trajectory, IPOPT solve, the time-marching verification of the
 optimum), IPOPT iterations and its peak resident memory (``resource.getrusage``).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,7 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import git_revision, machine  # noqa: E402
 
-CHILD = r'''
+CHILD = r"""
 import json, resource, sys, time, dataclasses
 t_import = time.perf_counter()
 from suspopt.config import config_from_dict
@@ -60,22 +61,29 @@ out['verify_rel_diff'] = max(abs(res.terms[0][t] / b - 1.0) for t, b in zip(cfg.
 vp.cleanup()
 out['peak_rss_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 print('RESULT ' + json.dumps(out))
-'''
+"""
 
 
 def run_child(args: dict, cache: str) -> dict:
-    env = dict(os.environ, SUSPOPT_CACHE_DIR=cache, OMP_NUM_THREADS='1',
-               OPENBLAS_NUM_THREADS='1', PYTHONWARNINGS='ignore')
+    env = dict(
+        os.environ,
+        SUSPOPT_CACHE_DIR=cache,
+        OMP_NUM_THREADS='1',
+        OPENBLAS_NUM_THREADS='1',
+        PYTHONWARNINGS='ignore',
+    )
     import time
+
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, '-c', CHILD, json.dumps(args)], env=env,
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, '-c', CHILD, json.dumps(args)], env=env, capture_output=True, text=True
+    )
     wall = time.perf_counter() - t0
     line = [ln for ln in proc.stdout.splitlines() if ln.startswith('RESULT ')]
     if proc.returncode != 0 or not line:
         tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
         return {'error': ' | '.join(tail), 'wall_s': wall}
-    res = json.loads(line[0][len('RESULT '):])
+    res = json.loads(line[0][len('RESULT ') :])
     res['wall_s'] = wall
     return res
 
@@ -83,38 +91,52 @@ def run_child(args: dict, cache: str) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--horizons', type=float, nargs='+', default=[5, 10, 20, 40, 80])
-    ap.add_argument('--fidelity', nargs='+', default=['low', 'mixed'],
-                    choices=('low', 'mixed'))
+    ap.add_argument('--fidelity', nargs='+', default=['low', 'mixed'], choices=('low', 'mixed'))
     ap.add_argument('--density', type=float, default=16.0, help='segments per second')
     ap.add_argument('--speed', type=float, default=20.0)
     ap.add_argument('--road-class', default='C')
     a = ap.parse_args()
-    print(f'# cost against the horizon: ISO 8608 class {a.road_class} road at {a.speed:g} m/s, '
-          f'{a.density:g} segments/s of order 5 — {machine()}, suspopt {git_revision()}\n')
-    print('| model | horizon [s] | segments | NLP n × m (Jacobian nonzeros, colors) | run | '
-          'wall [s] | reference scales [s] | setup [s] | sparsity + coloring [s] | '
-          'starting trajectory [s] | solve [s] | iterations | verification [s] (max rel. '
-          'diff.) | peak RSS [MB] |')
+    print(
+        f'# cost against the horizon: ISO 8608 class {a.road_class} road at {a.speed:g} m/s, '
+        f'{a.density:g} segments/s of order 5 — {machine()}, suspopt {git_revision()}\n'
+    )
+    print(
+        '| model | horizon [s] | segments | NLP n × m (Jacobian nonzeros, colors) | run | '
+        'wall [s] | reference scales [s] | setup [s] | sparsity + coloring [s] | '
+        'starting trajectory [s] | solve [s] | iterations | verification [s] (max rel. '
+        'diff.) | peak RSS [MB] |'
+    )
     print('|---|---|---|---|---|---|---|---|---|---|---|---|---|---|')
     for fid in a.fidelity:
         for T in a.horizons:
-            args = {'horizon': T, 'speed': a.speed, 'road_class': a.road_class,
-                    'density': a.density, 'fidelity': fid}
+            args = {
+                'horizon': T,
+                'speed': a.speed,
+                'road_class': a.road_class,
+                'density': a.density,
+                'fidelity': fid,
+            }
             with tempfile.TemporaryDirectory(prefix='suspopt-bench-horizon-') as cache:
                 for run in ('first', 'cached'):
                     r = run_child(args, cache)
                     if 'error' in r:
-                        print(f'| {fid} | {T:g} | {round(a.density * T)} | | {run} | '
-                              f"{r['wall_s']:.1f} | failed: {r['error']} |", flush=True)
+                        print(
+                            f'| {fid} | {T:g} | {round(a.density * T)} | | {run} | '
+                            f'{r["wall_s"]:.1f} | failed: {r["error"]} |',
+                            flush=True,
+                        )
                         break
                     n, m, nnz, colors = r['nlp']
-                    print(f"| {fid} | {T:g} | {round(a.density * T)} | {n} × {m} ({nnz}, "
-                          f"{colors}) | {run} | {r['wall_s']:.1f} | {r['scales_s']:.2f} | "
-                          f"{r['setup_s']:.2f} | {r['coloring_s']:.2f} | {r['guess_s']:.2f} | "
-                          f"{r['solve_s']:.2f} | {r['iterations']}"
-                          f"{'' if r['success'] else ' (not converged)'} | "
-                          f"{r['verify_s']:.2f} ({r['verify_rel_diff']:.1e}) | "
-                          f"{r['peak_rss_mb']:.0f} |", flush=True)
+                    print(
+                        f'| {fid} | {T:g} | {round(a.density * T)} | {n} × {m} ({nnz}, '
+                        f'{colors}) | {run} | {r["wall_s"]:.1f} | {r["scales_s"]:.2f} | '
+                        f'{r["setup_s"]:.2f} | {r["coloring_s"]:.2f} | {r["guess_s"]:.2f} | '
+                        f'{r["solve_s"]:.2f} | {r["iterations"]}'
+                        f'{"" if r["success"] else " (not converged)"} | '
+                        f'{r["verify_s"]:.2f} ({r["verify_rel_diff"]:.1e}) | '
+                        f'{r["peak_rss_mb"]:.0f} |',
+                        flush=True,
+                    )
 
 
 if __name__ == '__main__':

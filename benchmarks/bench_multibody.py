@@ -9,6 +9,7 @@ as the vehicle interface calls it), velocity analysis, generalized forces and au
 solve (eq. 11: coordinate partitioning, Schur elimination and dense), medians (min–max) of ``--repeat`` calls.
 Process CPU time, so that other jobs on a shared machine disturb it less.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -40,14 +41,14 @@ def timings(name: str, N: int, repeat: int) -> dict[str, list[float]]:
     Cq = s.constraint_jacobian(q)
     qd = s.velocities(q, v, Cq)
     Q = s.generalized_forces(q, loads, qd, params)
-    calls = {'position analysis': lambda: s.positions(z),
-             'velocity analysis': lambda: s.velocities(q, v, s.constraint_jacobian(q)),
-             'generalized forces': lambda: s.generalized_forces(q, loads, qd, params),
-             'augmented solve (partitioned)': lambda: s.solve_augmented(q, qd, Q, Cq=Cq),
-             'augmented solve (Schur)': lambda: s.solve_augmented(q, qd, Q, Cq=Cq,
-                                                                  method='schur'),
-             'augmented solve (dense)': lambda: s.solve_augmented(q, qd, Q, Cq=Cq,
-                                                                  method='dense')}
+    calls = {
+        'position analysis': lambda: s.positions(z),
+        'velocity analysis': lambda: s.velocities(q, v, s.constraint_jacobian(q)),
+        'generalized forces': lambda: s.generalized_forces(q, loads, qd, params),
+        'augmented solve (partitioned)': lambda: s.solve_augmented(q, qd, Q, Cq=Cq),
+        'augmented solve (Schur)': lambda: s.solve_augmented(q, qd, Q, Cq=Cq, method='schur'),
+        'augmented solve (dense)': lambda: s.solve_augmented(q, qd, Q, Cq=Cq, method='dense'),
+    }
     out = {}
     for label, f in calls.items():
         f()
@@ -65,8 +66,9 @@ def main() -> None:
     ap.add_argument('--states', type=int, nargs='+', default=[400, 4000])
     ap.add_argument('--repeat', type=int, default=15)
     args = ap.parse_args()
-    print(f'# batched multibody evaluations [ms per call] — {machine()}, suspopt '
-          f'{git_revision()}\n')
+    print(
+        f'# batched multibody evaluations [ms per call] — {machine()}, suspopt {git_revision()}\n'
+    )
     for N in args.states:
         res = {name: timings(name, N, args.repeat) for name in MECHANISMS}
         print(f'\n## N = {N} states\n')

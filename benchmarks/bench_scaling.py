@@ -6,6 +6,7 @@ For each grid: one-time coloring, then (cached coloring) the solve time of the
 low-fidelity optimization from the initial design and of the mixed-fidelity optimization
 from the low-fidelity optimum of that grid, with iterations and time per iteration.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,8 +36,10 @@ def main() -> None:
     base = StudyConfig()
     scales = resolve_scales(base)
     print(f'# cost against grid size (order 5) — {machine()}, suspopt {git_revision()}\n')
-    print('| segments | nodes | model | coloring [s] (once) | solve [s] median (min–max) | '
-          'iterations | solve / Jacobian evaluation [ms] | f |')
+    print(
+        '| segments | nodes | model | coloring [s] (once) | solve [s] median (min–max) | '
+        'iterations | solve / Jacobian evaluation [ms] | f |'
+    )
     print('|---|---|---|---|---|---|---|---|')
     x0 = base.design.initial()
     with fresh_cache():
@@ -49,11 +52,13 @@ def main() -> None:
                 walls = [r['solve'] for r in runs]
                 res = runs[-1]
                 med = statistics.median(walls)
-                print(f"| {n} | {n * 5 + 1} | {fid} | {first['coloring']:.2f} | "
-                      f"{med:.2f} ({min(walls):.2f}–{max(walls):.2f}) | {res['iterations']} | "
-                      f"{1e3 * med / max(res['gevals'], 1):.0f} | "
-                      f"{res['f']:.5f}{'' if res['success'] else ' (not converged)'} |",
-                      flush=True)
+                print(
+                    f'| {n} | {n * 5 + 1} | {fid} | {first["coloring"]:.2f} | '
+                    f'{med:.2f} ({min(walls):.2f}–{max(walls):.2f}) | {res["iterations"]} | '
+                    f'{1e3 * med / max(res["gevals"], 1):.0f} | '
+                    f'{res["f"]:.5f}{"" if res["success"] else " (not converged)"} |',
+                    flush=True,
+                )
                 if fid == 'low':
                     start['mixed'] = res['design']
 

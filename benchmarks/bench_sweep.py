@@ -16,6 +16,7 @@ task: (a) the sweep's worker-seconds not spent in tasks, per task (b) the same s
 no-op tasks through the engine, its run time per task; each against one optimization
 (the serial median).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,14 +38,16 @@ from suspopt.sweep import load_sweep, noop_task, run_sweep, run_task  # noqa: E4
 def _sweep_file(root: Path, n: int, segments: int) -> Path:
     (root / 'study.toml').write_text(f'[transcription]\nsegments = {segments}\n')
     path = root / 'sweep.toml'
-    path.write_text('study = "study.toml"\nfidelity = "low"\n'
-                    f'[multistart]\nn = {n}\nseed = 0\nmethod = "lhs"\n')
+    path.write_text(
+        f'study = "study.toml"\nfidelity = "low"\n[multistart]\nn = {n}\nseed = 0\nmethod = "lhs"\n'
+    )
     return path
 
 
 def _one_thread() -> None:
     """A bare process's BLAS/OpenMP pools at one thread, as a sweep worker's."""
     from threadpoolctl import threadpool_limits
+
     threadpool_limits(1)
 
 
@@ -57,8 +60,11 @@ def main() -> int:
     ap.add_argument('--tasks', type=int, default=16)
     ap.add_argument('--workers', type=int, default=2)
     ap.add_argument('--segments', type=int, default=80)
-    ap.add_argument('--starts', default='fork,spawn',
-                    help='how the local workers start, comma-separated (first: the default)')
+    ap.add_argument(
+        '--starts',
+        default='fork,spawn',
+        help='how the local workers start, comma-separated (first: the default)',
+    )
     args = ap.parse_args()
     starts = args.starts.split(',')
     quiet = lambda msg: None  # noqa: E731
@@ -67,8 +73,10 @@ def main() -> int:
         path = _sweep_file(root, args.tasks, args.segments)
         sweep = load_sweep(path)
         print(f'{machine()}; load average {os.getloadavg()[0]:.2f} at start')
-        print(f'{len(sweep.tasks)} low-fidelity optimizations, {args.segments} x 5 grid, '
-              f'multistart (LHS) of the paper\'s case')
+        print(
+            f'{len(sweep.tasks)} low-fidelity optimizations, {args.segments} x 5 grid, '
+            f"multistart (LHS) of the paper's case"
+        )
         # warm-up: this process's imports and the coloring (cache) for both sides
         run_task(sweep.tasks[0].payload(root / 'warm', None))
 
@@ -88,45 +96,66 @@ def main() -> int:
         sweeps = {}
         for start in starts:
             t = time.perf_counter()
-            par = run_sweep(path, root / f'sweep-{start}', workers=args.workers, log=quiet,
-                            worker_start=start)
+            par = run_sweep(
+                path, root / f'sweep-{start}', workers=args.workers, log=quiet, worker_start=start
+            )
             sweeps[start] = (par, time.perf_counter() - t, _records(root / f'sweep-{start}'))
             assert par.exit_code == 0, par.counts
 
         t = time.perf_counter()
-        noop = run_sweep(path, root / 'noop', workers=args.workers, log=quiet,
-                         task_fn=noop_task, worker_start=starts[0])
+        noop = run_sweep(
+            path,
+            root / 'noop',
+            workers=args.workers,
+            log=quiet,
+            task_fn=noop_task,
+            worker_start=starts[0],
+        )
         noop_wall = time.perf_counter() - t
 
     one = statistics.median(serial_times)
-    print(f'\nserial, one process: {serial_wall:.2f} s ({len(serial)} tasks; median task '
-          f'{one:.3f} s, min {min(serial_times):.3f}, max {max(serial_times):.3f}); CPU '
-          f"time per task: median {statistics.median(r['cpu_time_s'] for r in serial):.3f} s")
-    print(f'bare processes, {args.workers} forked (no engine): {bare_wall:.2f} s; task '
-          f"times median {statistics.median(r['wall_time_s'] for r in bare):.3f} s; "
-          f'throughput ratio {serial_wall / bare_wall:.2f}x (the ceiling on this machine)')
+    print(
+        f'\nserial, one process: {serial_wall:.2f} s ({len(serial)} tasks; median task '
+        f'{one:.3f} s, min {min(serial_times):.3f}, max {max(serial_times):.3f}); CPU '
+        f'time per task: median {statistics.median(r["cpu_time_s"] for r in serial):.3f} s'
+    )
+    print(
+        f'bare processes, {args.workers} forked (no engine): {bare_wall:.2f} s; task '
+        f'times median {statistics.median(r["wall_time_s"] for r in bare):.3f} s; '
+        f'throughput ratio {serial_wall / bare_wall:.2f}x (the ceiling on this machine)'
+    )
     for start, (par, par_wall, par_recs) in sweeps.items():
         par_times = [r['wall_time_s'] for r in par_recs]
         run_s = par.timings['run_s']
         idle = (run_s * args.workers - sum(par_times)) / len(par_times)
         rest = par_wall - run_s - par.timings['cluster_start_s'] - par.timings['shutdown_s']
-        print(f'sweep, {args.workers} local workers ({start}ed): {par_wall:.2f} s end to end '
-              f"= cluster start {par.timings['cluster_start_s']:.2f} s + tasks {run_s:.2f} s "
-              f"+ shutdown {par.timings['shutdown_s']:.2f} s + validation, records, figures "
-              f'{rest:.2f} s')
-        print(f'  task times in the workers: median {statistics.median(par_times):.3f} s, '
-              f'sum {sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s); CPU time '
-              f"per task: median {statistics.median(r['cpu_time_s'] for r in par_recs):.3f} s")
-        print(f'  throughput ratio: {serial_wall / par_wall:.2f}x end to end, '
-              f'{serial_wall / run_s:.2f}x while the tasks run (target >= 1.8x); '
-              f'{bare_wall / par_wall:.2f} of the bare processes\' throughput')
-        print(f'  idle worker time per task {idle * 1e3:.1f} ms = {100 * idle / one:.1f} % '
-              'of one optimization')
+        print(
+            f'sweep, {args.workers} local workers ({start}ed): {par_wall:.2f} s end to end '
+            f'= cluster start {par.timings["cluster_start_s"]:.2f} s + tasks {run_s:.2f} s '
+            f'+ shutdown {par.timings["shutdown_s"]:.2f} s + validation, records, figures '
+            f'{rest:.2f} s'
+        )
+        print(
+            f'  task times in the workers: median {statistics.median(par_times):.3f} s, '
+            f'sum {sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s); CPU time '
+            f'per task: median {statistics.median(r["cpu_time_s"] for r in par_recs):.3f} s'
+        )
+        print(
+            f'  throughput ratio: {serial_wall / par_wall:.2f}x end to end, '
+            f'{serial_wall / run_s:.2f}x while the tasks run (target >= 1.8x); '
+            f"{bare_wall / par_wall:.2f} of the bare processes' throughput"
+        )
+        print(
+            f'  idle worker time per task {idle * 1e3:.1f} ms = {100 * idle / one:.1f} % '
+            'of one optimization'
+        )
     noop_per_task = noop.timings['run_s'] / len(sweep.tasks)
-    print(f'engine overhead per task, no-op tasks ({starts[0]}ed workers): '
-          f'{noop_per_task * 1e3:.1f} ms per task ({noop_wall:.2f} s for '
-          f'{len(sweep.tasks)} incl. cluster) = {100 * noop_per_task / one:.2f} % '
-          '(target < 5 %)')
+    print(
+        f'engine overhead per task, no-op tasks ({starts[0]}ed workers): '
+        f'{noop_per_task * 1e3:.1f} ms per task ({noop_wall:.2f} s for '
+        f'{len(sweep.tasks)} incl. cluster) = {100 * noop_per_task / one:.2f} % '
+        '(target < 5 %)'
+    )
     print(f'load average {os.getloadavg()[0]:.2f} at the end')
     return 0
 

@@ -17,6 +17,7 @@ With ``--compare``, every measurement runs in a fresh subprocess of each code ve
 the table gives medians over the repeats of each and their ratio; the J of both are
 printed side by side with their largest relative difference.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,6 +36,7 @@ MECHANISM = 'double_wishbone'
 
 def micro(N: int, calls: int, loops: int) -> dict:
     import numpy as np
+
     from suspopt.multibody.suspension import SuspensionModule
 
     mod = SuspensionModule(MECHANISM)
@@ -81,36 +83,44 @@ def march(car: str, horizon: float | None) -> dict:
     import dataclasses
 
     import numpy as np
+
     from suspopt.config import StudyConfig, full_car_defaults
     from suspopt.timemarching import simulate
 
     cfg = StudyConfig() if car == 'half' else full_car_defaults()
     if horizon is not None:
-        cfg = dataclasses.replace(cfg, maneuver=dataclasses.replace(cfg.maneuver,
-                                                                    horizon=horizon))
+        cfg = dataclasses.replace(cfg, maneuver=dataclasses.replace(cfg.maneuver, horizon=horizon))
     T = cfg.maneuver.horizon
     t0 = time.perf_counter()
     tr = simulate(cfg, 'mixed', t_eval=np.array([0.0, T]))
     wall = time.perf_counter() - t0
     n = tr.info['rhs_evaluations']
-    return {'wall_s': wall, 'rhs': n, 'us_per_rhs': wall / n * 1e6,
-            'J': [float(x) for x in tr.J]}
+    return {'wall_s': wall, 'rhs': n, 'us_per_rhs': wall / n * 1e6, 'J': [float(x) for x in tr.J]}
 
 
 def worker(args) -> None:
     import suspopt
+
     out = {'suspopt': suspopt.__file__}
     if args.case == 'micro':
-        out['micro'] = {str(N): micro(N, 200 if N <= 16 else 4, 5 if N <= 16 else 3)
-                        for N in args.states}
+        out['micro'] = {
+            str(N): micro(N, 200 if N <= 16 else 4, 5 if N <= 16 else 3) for N in args.states
+        }
     else:
         out[args.case] = march(args.case, args.horizon)
     print(json.dumps(out))
 
 
 def run(root: Path, case: str, args) -> dict:
-    cmd = [sys.executable, str(HERE / 'bench_time_marching.py'), '--worker', '--case', case,
-           '--states', *map(str, args.states)]
+    cmd = [
+        sys.executable,
+        str(HERE / 'bench_time_marching.py'),
+        '--worker',
+        '--case',
+        case,
+        '--states',
+        *map(str, args.states),
+    ]
     if args.horizon is not None:
         cmd += ['--horizon', str(args.horizon)]
     env = dict(os.environ, PYTHONPATH=str(root))
@@ -126,12 +136,17 @@ def run(root: Path, case: str, args) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument('--compare', type=Path, default=None,
-                    help='a checkout of the code to compare with (e.g. a worktree of main)')
+    ap.add_argument(
+        '--compare',
+        type=Path,
+        default=None,
+        help='a checkout of the code to compare with (e.g. a worktree of main)',
+    )
     ap.add_argument('--repeat', type=int, default=5)
     ap.add_argument('--states', type=int, nargs='+', default=[1, 2, 4, 2000])
-    ap.add_argument('--cases', nargs='+', default=['micro', 'half', 'full'],
-                    choices=['micro', 'half', 'full'])
+    ap.add_argument(
+        '--cases', nargs='+', default=['micro', 'half', 'full'], choices=['micro', 'half', 'full']
+    )
     ap.add_argument('--horizon', type=float, default=None)
     ap.add_argument('--worker', action='store_true', help=argparse.SUPPRESS)
     ap.add_argument('--case', default=None, help=argparse.SUPPRESS)
@@ -143,8 +158,9 @@ def main() -> None:
     sys.path.insert(0, str(HERE))
     from _common import git_revision, machine
 
-    versions = {'new': ROOT} if args.compare is None else {'old': args.compare.resolve(),
-                                                           'new': ROOT}
+    versions = (
+        {'new': ROOT} if args.compare is None else {'old': args.compare.resolve(), 'new': ROOT}
+    )
     names = list(versions)
     rows: dict[str, dict[str, list[float]]] = {}
     J: dict[str, dict[str, list[float]]] = {}
@@ -157,21 +173,23 @@ def main() -> None:
                     for N, r in out['micro'].items():
                         for what, us in r.items():
                             rows.setdefault(f'{what}, N = {N} [µs/call]', {}).setdefault(
-                                v, []).append(us)
+                                v, []
+                            ).append(us)
                 else:
                     r = out[case]
                     label = f'{case} car mixed TM'
-                    rows.setdefault(f'{label}: wall [s]', {}).setdefault(v, []).append(
-                        r['wall_s'])
-                    rows.setdefault(f'{label}: per RHS call [µs]', {}).setdefault(
-                        v, []).append(r['us_per_rhs'])
-                    rows.setdefault(f'{label}: RHS calls', {}).setdefault(v, []).append(
-                        r['rhs'])
+                    rows.setdefault(f'{label}: wall [s]', {}).setdefault(v, []).append(r['wall_s'])
+                    rows.setdefault(f'{label}: per RHS call [µs]', {}).setdefault(v, []).append(
+                        r['us_per_rhs']
+                    )
+                    rows.setdefault(f'{label}: RHS calls', {}).setdefault(v, []).append(r['rhs'])
                     J.setdefault(case, {})[v] = r['J']
         print(f'# repeat {rep + 1}/{args.repeat} done', file=sys.stderr, flush=True)
 
-    print(f'# multibody at time-marching batch sizes — {machine()}, suspopt '
-          f'{git_revision()}; medians of {args.repeat} interleaved repeats\n')
+    print(
+        f'# multibody at time-marching batch sizes — {machine()}, suspopt '
+        f'{git_revision()}; medians of {args.repeat} interleaved repeats\n'
+    )
     head = '| quantity | ' + ' | '.join(names) + (' | old / new |' if len(names) > 1 else ' |')
     print(head)
     print('|---|' + '---|' * (len(names) + (len(names) > 1)))
@@ -186,8 +204,9 @@ def main() -> None:
         for v in names:
             print(f'  {v:>4}: ' + '  '.join(f'{x:.16e}' for x in byv[v]))
         if len(names) > 1:
-            rel = max(abs(a - b) / max(abs(a), abs(b), 1e-300)
-                      for a, b in zip(byv['old'], byv['new']))
+            rel = max(
+                abs(a - b) / max(abs(a), abs(b), 1e-300) for a, b in zip(byv['old'], byv['new'])
+            )
             print(f'  max relative difference: {rel:.3g}')
 
 

@@ -65,6 +65,7 @@ either form of the integrals. ``--check-grid`` compares the grid with dymos' Gri
 
 Run ``python benchmarks/casadi_peer.py --repeat 3`` (``--help`` for the options).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -81,13 +82,13 @@ from suspopt.road import wheel_road_inputs
 from suspopt.timemarching import reference_scales
 
 # ---------------------------------------------------------------- problem data (SPEC §1-§5)
-A1, A2 = 1.271, -1.713             # axle positions a_i [m] (+ ahead of the CG)
-M_C, I_C = 1414.0, 2782.0          # chassis mass [kg] and pitch inertia [kg m^2]
-M_W = (120.0, 120.0)               # wheel masses m_i [kg]
-K_T = (200000.0, 200000.0)         # tyre stiffnesses k_Ti [N/m]
-HORIZON = 5.0                      # T [s]
-SPEED = 10.0                       # v [m/s]
-WHEELBASE = A1 - A2                # L [m]
+A1, A2 = 1.271, -1.713  # axle positions a_i [m] (+ ahead of the CG)
+M_C, I_C = 1414.0, 2782.0  # chassis mass [kg] and pitch inertia [kg m^2]
+M_W = (120.0, 120.0)  # wheel masses m_i [kg]
+K_T = (200000.0, 200000.0)  # tyre stiffnesses k_Ti [N/m]
+HORIZON = 5.0  # T [s]
+SPEED = 10.0  # v [m/s]
+WHEELBASE = A1 - A2  # L [m]
 DESIGN_NAMES = ('k_S1', 'k_S2', 'c_S1', 'c_S2')
 LOWER = np.array([1e4, 1e4, 1e3, 1e3])
 UPPER = np.array([5e4, 5e4, 5e3, 5e3])
@@ -106,7 +107,7 @@ def lgr_points(n: int) -> tuple[np.ndarray, np.ndarray]:
     c = np.zeros(n + 1)
     c[n - 1] = c[n] = 1.0
     tau = np.sort(np.real(np.polynomial.legendre.legroots(c)))
-    tau[0] = -1.0                                           # exact, not a root-finder value
+    tau[0] = -1.0  # exact, not a root-finder value
     p_nm1 = np.polynomial.legendre.legval(tau, np.eye(n)[n - 1])
     w = (1.0 - tau) / (n * p_nm1) ** 2
     return tau, w
@@ -116,7 +117,7 @@ def differentiation_matrix(nodes: np.ndarray) -> np.ndarray:
     """D[i, j] = l_j'(τ_i) for the Lagrange basis l_j through ``nodes`` (barycentric form)."""
     diff = nodes[:, None] - nodes[None, :]
     np.fill_diagonal(diff, 1.0)
-    bw = 1.0 / np.prod(diff, axis=1)                        # barycentric weights
+    bw = 1.0 / np.prod(diff, axis=1)  # barycentric weights
     D = (bw[None, :] / bw[:, None]) / diff
     np.fill_diagonal(D, 0.0)
     np.fill_diagonal(D, -D.sum(axis=1))
@@ -127,39 +128,49 @@ def radau_grid(segments: int, order: int, horizon: float = HORIZON) -> dict:
     """The compressed Radau grid of dymos: node times, collocation-node quadrature weights
     (in time, i.e. (h/2) w_j) and the per-segment differentiation matrix (n x (n+1))."""
     tau_col, w_col = lgr_points(order)
-    tau = np.append(tau_col, 1.0)                           # n LGR points + right end
-    D = differentiation_matrix(tau)[:order, :]              # rows: the collocation nodes
+    tau = np.append(tau_col, 1.0)  # n LGR points + right end
+    D = differentiation_matrix(tau)[:order, :]  # rows: the collocation nodes
     h = horizon / segments
     starts = h * np.arange(segments)
     t_col = (starts[:, None] + 0.5 * h * (tau_col[None, :] + 1.0)).ravel()
-    return {'t': np.append(t_col, horizon),                 # N = S n + 1 state nodes
-            't_col': t_col,                                 # the first S n of them
-            'quad': np.tile(0.5 * h * w_col, segments),     # ∫ g dt ≈ quad · g(t_col)
-            'D': D, 'h': h, 'tau': tau}
+    return {
+        't': np.append(t_col, horizon),  # N = S n + 1 state nodes
+        't_col': t_col,  # the first S n of them
+        'quad': np.tile(0.5 * h * w_col, segments),  # ∫ g dt ≈ quad · g(t_col)
+        'D': D,
+        'h': h,
+        'tau': tau,
+    }
 
 
 def check_grid_against_dymos(segments: int, order: int) -> float:
     """Largest difference between this grid and dymos' ``GridData`` for Radau (nodes in
     phase τ, segment τ, the collocation subset and the differentiation matrix)."""
     from dymos.transcriptions.grid_data import GridData
-    gd = GridData(num_segments=segments, transcription='radau-ps',
-                  transcription_order=order, compressed=True)
+
+    gd = GridData(
+        num_segments=segments, transcription='radau-ps', transcription_order=order, compressed=True
+    )
     g = radau_grid(segments, order)
     n = order
     # dymos lists n + 1 nodes per segment (the shared ends appear twice in its node list)
     ptau = gd.node_ptau.reshape(segments, n + 1)
     t_dymos = (ptau + 1.0) * HORIZON / 2.0
-    err = [np.abs(t_dymos[:, :n].ravel() - g['t_col']).max(),
-           np.abs(t_dymos[:, n] - (g['h'] * np.arange(1, segments + 1))).max(),
-           np.abs(gd.node_stau[:n + 1] - g['tau']).max(),
-           np.abs(gd.node_weight.reshape(segments, n + 1)[:, :n].ravel()
-                  * 0.5 * g['h'] - g['quad']).max()]
+    err = [
+        np.abs(t_dymos[:, :n].ravel() - g['t_col']).max(),
+        np.abs(t_dymos[:, n] - (g['h'] * np.arange(1, segments + 1))).max(),
+        np.abs(gd.node_stau[: n + 1] - g['tau']).max(),
+        np.abs(
+            gd.node_weight.reshape(segments, n + 1)[:, :n].ravel() * 0.5 * g['h'] - g['quad']
+        ).max(),
+    ]
     col = gd.subset_node_indices['col'].reshape(segments, n)
-    assert np.array_equal(col, np.arange(segments)[:, None] * (n + 1) + np.arange(n)), \
+    assert np.array_equal(col, np.arange(segments)[:, None] * (n + 1) + np.arange(n)), (
         'dymos collocation nodes are not the first n nodes of each segment'
+    )
     # dymos' state-to-collocation differentiation matrix (block diagonal, on segment τ)
     _, Ad = gd.phase_lagrange_matrices('state_disc', 'col')
-    D_dymos = np.asarray(Ad)[:n, :n + 1]                    # first segment's block
+    D_dymos = np.asarray(Ad)[:n, : n + 1]  # first segment's block
     err.append(np.abs(D_dymos - g['D']).max())
     return float(max(err))
 
@@ -174,16 +185,16 @@ def half_car_function():
     z_c, v_c, th, om, z_w1, v_w1, z_w2, v_w2 = ca.vertsplit(x)
     k_s, c_s = (p[0], p[1]), (p[2], p[3])
     z_w, v_w, a = (z_w1, z_w2), (v_w1, v_w2), (A1, A2)
-    f_s = [k_s[i] * (z_w[i] + a[i] * th - z_c) + c_s[i] * (v_w[i] + a[i] * om - v_c)
-           for i in range(2)]                                               # eq. 9
-    f_t = [K_T[i] * (delta[i] - z_w[i]) for i in range(2)]                  # eq. 10
-    zdd_c = (f_s[0] + f_s[1]) / M_C                                         # eq. 5
-    thdd_c = (-A1 * f_s[0] - A2 * f_s[1]) / I_C                             # eq. 6
-    zdd_w = [(-f_s[i] + f_t[i]) / M_W[i] for i in range(2)]                 # eqs. 7, 8
+    f_s = [
+        k_s[i] * (z_w[i] + a[i] * th - z_c) + c_s[i] * (v_w[i] + a[i] * om - v_c) for i in range(2)
+    ]  # eq. 9
+    f_t = [K_T[i] * (delta[i] - z_w[i]) for i in range(2)]  # eq. 10
+    zdd_c = (f_s[0] + f_s[1]) / M_C  # eq. 5
+    thdd_c = (-A1 * f_s[0] - A2 * f_s[1]) / I_C  # eq. 6
+    zdd_w = [(-f_s[i] + f_t[i]) / M_W[i] for i in range(2)]  # eqs. 7, 8
     xdot = ca.vertcat(v_c, zdd_c, om, thdd_c, v_w1, zdd_w[0], v_w2, zdd_w[1])
-    g = ca.vertcat(zdd_c ** 2, thdd_c ** 2, z_w1 ** 2, z_w2 ** 2)          # eq. 4
-    return ca.Function('half_car', [x, p, delta], [xdot, g],
-                       ['x', 'p', 'delta'], ['xdot', 'g'])
+    g = ca.vertcat(zdd_c**2, thdd_c**2, z_w1**2, z_w2**2)  # eq. 4
+    return ca.Function('half_car', [x, p, delta], [xdot, g], ['x', 'p', 'delta'], ['xdot', 'g'])
 
 
 def road_inputs(t: np.ndarray) -> np.ndarray:
@@ -211,9 +222,16 @@ def resolve_scales(scales) -> tuple[float, ...]:
 
 
 # ------------------------------------------------------------------------------- solve
-def solve_peer(segments: int = 64, order: int = 5, scales=None, hessian: str = 'exact',
-               *, start: dict | None = None, fixed_design: bool = False,
-               integrals: str = 'quadrature') -> dict:
+def solve_peer(
+    segments: int = 64,
+    order: int = 5,
+    scales=None,
+    hessian: str = 'exact',
+    *,
+    start: dict | None = None,
+    fixed_design: bool = False,
+    integrals: str = 'quadrature',
+) -> dict:
     """Build and solve the low-fidelity NLP; return the optimum and timings.
 
     scales : None (= 'reference', by suspopt's time marching), 'paper' or 4 numbers.
@@ -233,7 +251,7 @@ def solve_peer(segments: int = 64, order: int = 5, scales=None, hessian: str = '
     grid = radau_grid(segments, order)
     n, n_col = order, segments * order
     n_nodes = n_col + 1
-    delta = road_inputs(grid['t_col'])                      # 2 x n_col, road at col nodes
+    delta = road_inputs(grid['t_col'])  # 2 x n_col, road at col nodes
 
     # global differentiation matrix: defect block of segment j uses nodes j n .. j n + n
     rows, cols, vals = [], [], []
@@ -251,23 +269,27 @@ def solve_peer(segments: int = 64, order: int = 5, scales=None, hessian: str = '
     xhat = ca.MX.sym('xhat', 4)
     X_free = ca.MX.sym('X', n_aug, n_nodes - 1)
     X = ca.horzcat(ca.MX.zeros(n_aug, 1), X_free)
-    design = LOWER + (UPPER - LOWER) * xhat                 # physical design [N/m, N s/m]
+    design = LOWER + (UPPER - LOWER) * xhat  # physical design [N/m, N s/m]
 
-    ode = half_car_function().map(n_col)                    # vectorized over the col nodes
+    ode = half_car_function().map(n_col)  # vectorized over the col nodes
     F, G = ode(X[:N_STATES, :n_col], ca.repmat(design, 1, n_col), ca.DM(delta))
     rhs = F if integrals == 'quadrature' else ca.vertcat(F, G / ca.DM(s))
     defects = ca.mtimes(X, D_glob.T) - 0.5 * grid['h'] * rhs
 
     if integrals == 'quadrature':
-        J = ca.mtimes(G, ca.DM(grid['quad']))               # 4 x 1, the integrals J_k
+        J = ca.mtimes(G, ca.DM(grid['quad']))  # 4 x 1, the integrals J_k
     else:
-        J = X[N_STATES:, -1] * ca.DM(s)                     # read J_k/s_k at t = T
+        J = X[N_STATES:, -1] * ca.DM(s)  # read J_k/s_k at t = T
     f = ca.dot(ca.DM(WEIGHTS / s), J)
 
     w = ca.vertcat(xhat, ca.vec(X_free))
     nlp = {'x': w, 'f': f, 'g': ca.vec(defects)}
-    opts = {'ipopt.print_level': 0, 'print_time': False, 'ipopt.sb': 'yes',
-            'ipopt.hessian_approximation': hessian}
+    opts = {
+        'ipopt.print_level': 0,
+        'print_time': False,
+        'ipopt.sb': 'yes',
+        'ipopt.hessian_approximation': hessian,
+    }
     solver = ca.nlpsol('solver', 'ipopt', nlp, opts)
     terms_fn = ca.Function('terms', [w], [J])
     n_w = w.numel()
@@ -275,7 +297,7 @@ def solve_peer(segments: int = 64, order: int = 5, scales=None, hessian: str = '
     x0_hat = (x0 - LOWER) / (UPPER - LOWER)
     lbw, ubw = -np.inf * np.ones(n_w), np.inf * np.ones(n_w)
     lbw[:4], ubw[:4] = (x0_hat, x0_hat) if fixed_design else (0.0, 1.0)
-    w0 = np.zeros(n_w)                                      # states: zero initial guess
+    w0 = np.zeros(n_w)  # states: zero initial guess
     w0[:4] = x0_hat
     build_time = time.perf_counter() - t_build
 
@@ -310,40 +332,60 @@ def main(argv=None) -> None:
     ap.add_argument('--order', type=int, default=5)
     ap.add_argument('--normalization', choices=('reference', 'paper'), default='reference')
     ap.add_argument('--hessian', choices=('exact', 'limited-memory'), default='exact')
-    ap.add_argument('--integrals', choices=('quadrature', 'states'), default='quadrature',
-                    help='objective integrals by LGR quadrature (default) or integrated states')
-    ap.add_argument('--fixed-design', action='store_true',
-                    help='pin the design at the initial point (checks f there, ~1 with '
-                         'reference scales)')
+    ap.add_argument(
+        '--integrals',
+        choices=('quadrature', 'states'),
+        default='quadrature',
+        help='objective integrals by LGR quadrature (default) or integrated states',
+    )
+    ap.add_argument(
+        '--fixed-design',
+        action='store_true',
+        help='pin the design at the initial point (checks f there, ~1 with reference scales)',
+    )
     ap.add_argument('--repeat', type=int, default=1)
-    ap.add_argument('--check-grid', action='store_true',
-                    help="compare the grid with dymos' GridData and exit")
+    ap.add_argument(
+        '--check-grid', action='store_true', help="compare the grid with dymos' GridData and exit"
+    )
     args = ap.parse_args(argv)
 
     if args.check_grid:
         err = check_grid_against_dymos(args.segments, args.order)
-        print(f'grid {args.segments} x {args.order}: largest difference to dymos GridData '
-              f'(node times, segment tau, quadrature weights, differentiation) = {err:.2e}')
+        print(
+            f'grid {args.segments} x {args.order}: largest difference to dymos GridData '
+            f'(node times, segment tau, quadrature weights, differentiation) = {err:.2e}'
+        )
         return
 
     scales = resolve_scales(args.normalization)
-    runs = [solve_peer(args.segments, args.order, scales, args.hessian,
-                       fixed_design=args.fixed_design, integrals=args.integrals)
-            for _ in range(args.repeat)]
+    runs = [
+        solve_peer(
+            args.segments,
+            args.order,
+            scales,
+            args.hessian,
+            fixed_design=args.fixed_design,
+            integrals=args.integrals,
+        )
+        for _ in range(args.repeat)
+    ]
     r = runs[-1]
-    print(f'CasADi peer: half car, Radau {args.segments} x {args.order} '
-          f'({r["n_variables"]} variables, {r["n_constraints"]} constraints), '
-          f'hessian={args.hessian}, integrals={args.integrals}, '
-          f'normalization={args.normalization}, repeats={args.repeat}')
+    print(
+        f'CasADi peer: half car, Radau {args.segments} x {args.order} '
+        f'({r["n_variables"]} variables, {r["n_constraints"]} constraints), '
+        f'hessian={args.hessian}, integrals={args.integrals}, '
+        f'normalization={args.normalization}, repeats={args.repeat}'
+    )
     print(f'{"time [s]":<10}{"median":>10}{"min":>10}{"max":>10}')
     for key in ('build_time_s', 'solve_time_s', 'total_time_s'):
         vals = [run[key] for run in runs]
-        print(f'{key[:-7]:<10}{statistics.median(vals):>10.3f}{min(vals):>10.3f}'
-              f'{max(vals):>10.3f}')
+        print(f'{key[:-7]:<10}{statistics.median(vals):>10.3f}{min(vals):>10.3f}{max(vals):>10.3f}')
     print(f'status: {r["status"]} (success={r["success"]}), iterations: {r["iterations"]}')
     print('design: ' + ', '.join(f'{k}={v:.6g}' for k, v in r['design'].items()))
-    print(f'f = {r["objective"]:.6f}   terms J_k/s_k: '
-          + ', '.join(f'{k}={v / s:.5f}' for (k, v), s in zip(r['terms'].items(), r['scales'])))
+    print(
+        f'f = {r["objective"]:.6f}   terms J_k/s_k: '
+        + ', '.join(f'{k}={v / s:.5f}' for (k, v), s in zip(r['terms'].items(), r['scales']))
+    )
 
 
 if __name__ == '__main__':

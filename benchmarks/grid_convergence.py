@@ -16,6 +16,7 @@ axles) instead, and ``--optimum`` adds that topology's own mixed-fidelity optimu
 columns name the worst term and say whether the grid meets SPEC's 0.1 % on every J_k at
 every design measured.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -54,20 +55,26 @@ def with_mechanism(base: StudyConfig, mechanism: str) -> StudyConfig:
 
 
 def with_grid(cfg: StudyConfig, segments: int, order: int) -> StudyConfig:
-    return cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=segments,
-                                                         order=order))
+    return cfg.replace(
+        transcription=dataclasses.replace(cfg.transcription, segments=segments, order=order)
+    )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument('--grids', nargs='+', default=['16x5', '32x5', '64x5', '80x5', '64x6',
-                                                   '96x5'])
+    ap.add_argument('--grids', nargs='+', default=['16x5', '32x5', '64x5', '80x5', '64x6', '96x5'])
     ap.add_argument('--mixed', action='store_true', help='also the mixed-fidelity model')
-    ap.add_argument('--mechanism', metavar='NAME[,NAME...]',
-                    help='the mixed-fidelity model with each of these mechanisms on both axles '
-                         '(instead of --mixed)')
-    ap.add_argument('--optimum', action='store_true',
-                    help="with --mechanism: also each topology's own mixed optimum")
+    ap.add_argument(
+        '--mechanism',
+        metavar='NAME[,NAME...]',
+        help='the mixed-fidelity model with each of these mechanisms on both axles '
+        '(instead of --mixed)',
+    )
+    ap.add_argument(
+        '--optimum',
+        action='store_true',
+        help="with --mechanism: also each topology's own mixed optimum",
+    )
     args = ap.parse_args()
     base = StudyConfig()
     scales = resolve_scales(base)
@@ -79,28 +86,38 @@ def main() -> None:
         models.append(('low', 'low', base))
         if args.mixed:
             models.append(('mixed', 'mixed', base))
-    designs = {label: dict(DESIGNS, **(EXTRA if args.mechanism else {}))
-               for label, _, _ in models}
+    designs = {label: dict(DESIGNS, **(EXTRA if args.mechanism else {})) for label, _, _ in models}
     if args.mechanism and args.optimum:
         low = optimize(base, 'low', scales=scales, verify=False)
         for label, fid, cfg in models:
             res = optimize(cfg, fid, start=low['design'], scales=scales, verify=False)
             if res['success']:
                 designs[label]['own mixed optimum'] = res['design']
-                print(f"{label}: own mixed optimum (default grid) "
-                      + ', '.join(f'{k} = {v:.1f}' for k, v in res['design'].items())
-                      + f", f = {res['objective']:.6f}", flush=True)
+                print(
+                    f'{label}: own mixed optimum (default grid) '
+                    + ', '.join(f'{k} = {v:.1f}' for k, v in res['design'].items())
+                    + f', f = {res["objective"]:.6f}',
+                    flush=True,
+                )
             else:
-                print(f"{label}: mixed optimization failed ({res['status']})", flush=True)
+                print(f'{label}: mixed optimization failed ({res["status"]})', flush=True)
     names = list(dict.fromkeys(n for d in designs.values() for n in d))
     print(f'\n# collocation vs time marching — {machine()}, suspopt {git_revision()}\n')
-    print('largest relative difference over J_k, collocation (IPOPT on the collocation '
-          'equations at the fixed design) against time marching (DOP853, rtol 1e-8)\n')
-    print('| grid | model | f at initial design | ' + ' | '.join(names)
-          + f' | worst term | every J_k within {100 * CRITERION:g} % |')
+    print(
+        'largest relative difference over J_k, collocation (IPOPT on the collocation '
+        'equations at the fixed design) against time marching (DOP853, rtol 1e-8)\n'
+    )
+    print(
+        '| grid | model | f at initial design | '
+        + ' | '.join(names)
+        + f' | worst term | every J_k within {100 * CRITERION:g} % |'
+    )
     print('|---|---|---|' + '---|' * (len(names) + 2))
-    tm = {(label, k): simulate(cfg, fid, d).J for label, fid, cfg in models
-          for k, d in designs[label].items()}
+    tm = {
+        (label, k): simulate(cfg, fid, d).J
+        for label, fid, cfg in models
+        for k, d in designs[label].items()
+    }
     for grid in args.grids:
         n, order = (int(v) for v in grid.split('x'))
         for label, fid, cfg0 in models:
@@ -120,8 +137,10 @@ def main() -> None:
                         f0 = res.objective
             cells = [f'{100 * errs[k]:.3f} %' if k in errs else '—' for k in names]
             ok = 'yes' if worst[0] <= CRITERION else '**no**'
-            print(f'| {grid} | {label} | {f0:.4f} | ' + ' | '.join(cells)
-                  + f' | {worst[1]} | {ok} |', flush=True)
+            print(
+                f'| {grid} | {label} | {f0:.4f} | ' + ' | '.join(cells) + f' | {worst[1]} | {ok} |',
+                flush=True,
+            )
 
 
 if __name__ == '__main__':

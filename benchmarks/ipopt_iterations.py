@@ -14,6 +14,7 @@ those alone, which include ``limited_memory_aug_solver = extended``; ``sherman``
 own default instead, the same steps at a different cost per step, which the solve time
 column shows side by side).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,8 +25,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import git_revision, machine, timed_optimize  # noqa: E402
 
-from suspopt.config import (StudyConfig, config_from_dict, full_car_defaults,  # noqa: E402
-                            load_config)
+from suspopt.config import (
+    StudyConfig,
+    config_from_dict,
+    full_car_defaults,  # noqa: E402
+    load_config,
+)
 from suspopt.robust import single_scenario  # noqa: E402
 from suspopt.study import resolve_scales  # noqa: E402
 from suspopt.transcription.grid import auto_segments  # noqa: E402
@@ -51,9 +56,14 @@ def cases() -> dict:
     full = full_car_defaults()
     seg = auto_segments(full, full.scenarios()[0], full.transcription.order)
     full = config_from_dict({**full.to_dict(), 'transcription': {'segments': seg}})
-    half_iso = config_from_dict({**StudyConfig().to_dict(), 'road': dict(full.road),
-                                 'maneuver': full.maneuver.__dict__,
-                                 'transcription': {'segments': seg}})
+    half_iso = config_from_dict(
+        {
+            **StudyConfig().to_dict(),
+            'road': dict(full.road),
+            'maneuver': full.maneuver.__dict__,
+            'transcription': {'segments': seg},
+        }
+    )
     robust = load_config(ROOT / 'examples' / 'robust.toml')
     out = {'paper': StudyConfig(), 'half_iso': half_iso, 'full_car': full}
     # the default full car (its objective's reference scales at its initial design, so the
@@ -61,19 +71,27 @@ def cases() -> dict:
     # the lower bounds of both springs and dampers, no front bar)
     d = full.design
     START['full_car@mid'] = {k: 0.5 * (d[k].lower + d[k].upper) for k in d.initial()}
-    START['full_car@near_optimum'] = {'k_S1': 11000.0, 'k_S2': 11000.0, 'c_S1': 1100.0,
-                                      'c_S2': 1100.0, 'k_R1': 2000.0, 'k_R2': 7000.0}
+    START['full_car@near_optimum'] = {
+        'k_S1': 11000.0,
+        'k_S2': 11000.0,
+        'c_S1': 1100.0,
+        'c_S2': 1100.0,
+        'k_R1': 2000.0,
+        'k_R2': 7000.0,
+    }
     out.update({name: full for name in START})
     out['robust'] = robust
-    out.update({f'robust[{i}]': single_scenario(robust, i)
-                for i in range(len(robust.scenarios()))})
+    out.update({f'robust[{i}]': single_scenario(robust, i) for i in range(len(robust.scenarios()))})
     return out
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument('--options', default='default,hist3,hist12,adaptive',
-                    help=f'comma-separated, of {", ".join(OPTIONS)}')
+    ap.add_argument(
+        '--options',
+        default='default,hist3,hist12,adaptive',
+        help=f'comma-separated, of {", ".join(OPTIONS)}',
+    )
     ap.add_argument('--cases', default=None, help='comma-separated case names (default all)')
     args = ap.parse_args()
     chosen = args.options.split(',')
@@ -88,13 +106,19 @@ def main() -> None:
         cfg = all_cases[name]
         scales = resolve_scales(cfg)
         for opt in chosen:
-            c = dataclasses.replace(cfg, optimizer=dataclasses.replace(
-                cfg.optimizer, options={**cfg.optimizer.options, **OPTIONS[opt]}))
+            c = dataclasses.replace(
+                cfg,
+                optimizer=dataclasses.replace(
+                    cfg.optimizer, options={**cfg.optimizer.options, **OPTIONS[opt]}
+                ),
+            )
             r = timed_optimize(c, 'low', scales, START.get(name, cfg.design.initial()))
             r.pop('problem').cleanup()
             flag = '' if r['success'] else ' (not converged)'
-            print(f"| {name} | {opt} | {r['iterations']}{flag} | {r['f']:.10g} | "
-                  f"{r['solve']:.2f} |", flush=True)
+            print(
+                f'| {name} | {opt} | {r["iterations"]}{flag} | {r["f"]:.10g} | {r["solve"]:.2f} |',
+                flush=True,
+            )
 
 
 if __name__ == '__main__':

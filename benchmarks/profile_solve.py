@@ -8,6 +8,7 @@ and imports are warm), then profiles a second build + solve from the same start 
 the initial design; mixed: the low-fidelity optimum) and prints the top functions, the
 IPOPT iterations and the multibody solver calls.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,8 +33,7 @@ def main() -> None:
     ap.add_argument('--sort', choices=('tottime', 'cumulative'), default='tottime')
     args = ap.parse_args()
     cfg = StudyConfig()
-    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
-                                                        segments=args.segments))
+    cfg = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=args.segments))
     scales = resolve_scales(cfg)
     start = cfg.design.initial()
     if args.fidelity == 'mixed':
@@ -44,11 +44,15 @@ def main() -> None:
     out = timed_optimize(cfg, args.fidelity, scales, start)
     prof.disable()
     out.pop('problem').cleanup()
-    print(f'# {args.fidelity}-fidelity optimize, {args.segments} x 5 — {machine()}, '
-          f'suspopt {git_revision()}')
-    print(f"setup {out['setup']:.3f} s, guess {out['guess']:.3f} s, solve {out['solve']:.3f} s "
-          f"(under the profiler), {out['iterations']} IPOPT iterations, multibody calls "
-          f"{out['calls'] or '—'}\n")
+    print(
+        f'# {args.fidelity}-fidelity optimize, {args.segments} x 5 — {machine()}, '
+        f'suspopt {git_revision()}'
+    )
+    print(
+        f'setup {out["setup"]:.3f} s, guess {out["guess"]:.3f} s, solve {out["solve"]:.3f} s '
+        f'(under the profiler), {out["iterations"]} IPOPT iterations, multibody calls '
+        f'{out["calls"] or "—"}\n'
+    )
     pstats.Stats(prof).sort_stats(args.sort).print_stats(args.top)
 
 

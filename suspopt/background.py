@@ -13,6 +13,7 @@ that dies without one is reported by name and exit code. Where ``fork`` is not a
 (or this is a daemonic process, e.g. inside a Dask worker, or has other threads) the checks
 run here, one after another, when they are collected — the same results.
 """
+
 from __future__ import annotations
 
 import multiprocessing as mp
@@ -24,8 +25,9 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 
 def usable_cores() -> int:
@@ -39,8 +41,12 @@ def usable_cores() -> int:
 def forking_available() -> bool:
     """True if checks can run in forked children here: Linux, not a daemonic process, and
     no other thread (a fork copies no thread, and might copy a lock one of them held)."""
-    return ('fork' in mp.get_all_start_methods() and sys.platform.startswith('linux')
-            and not mp.current_process().daemon and threading.active_count() == 1)
+    return (
+        'fork' in mp.get_all_start_methods()
+        and sys.platform.startswith('linux')
+        and not mp.current_process().daemon
+        and threading.active_count() == 1
+    )
 
 
 class BackgroundError(RuntimeError):
@@ -60,6 +66,7 @@ def _die_with_parent() -> None:
     """Linux: SIGKILL this process when its parent dies (best effort)."""
     try:
         import ctypes
+
         ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     except Exception:  # pragma: no cover - not available: the check just runs to its end
         pass
@@ -99,7 +106,7 @@ class Background:
         self._started = 0
         self._dir = tempfile.mkdtemp(prefix='suspopt-bg-') if self.forking else None
 
-    def __enter__(self) -> 'Background':
+    def __enter__(self) -> Background:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -131,8 +138,8 @@ class Background:
             self._started += 1
             job.path = os.path.join(self._dir, f'job-{self._started}.pickle')
             job.process = mp.get_context('fork').Process(
-                target=_child, args=(job.fn, job.args, job.path), daemon=True,
-                name=f'suspopt {key}')
+                target=_child, args=(job.fn, job.args, job.path), daemon=True, name=f'suspopt {key}'
+            )
             job.process.start()
             running += 1
 
@@ -142,9 +149,13 @@ class Background:
             with open(job.path, 'rb') as fh:
                 job.outcome = pickle.load(fh)
         except FileNotFoundError:
-            job.outcome = ('error', BackgroundError(
-                f'the background process of {job.process.name!r} died without a result '
-                f'(exit code {job.process.exitcode})'))
+            job.outcome = (
+                'error',
+                BackgroundError(
+                    f'the background process of {job.process.name!r} died without a result '
+                    f'(exit code {job.process.exitcode})'
+                ),
+            )
 
     def done(self, key: str) -> bool:
         """True if ``key``'s result can be taken without waiting."""

@@ -11,6 +11,7 @@ change never reuses a stale coloring.
 Location: ``$SUSPOPT_CACHE_DIR`` or ``~/.cache/suspopt/colorings`` (never a results folder).
 Files are written atomically, so parallel studies can share the cache.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -25,8 +26,15 @@ import openmdao
 from suspopt.config import StudyConfig
 from suspopt.driver.sparsity import Coloring
 
-_MODEL_SOURCES = ('models', 'multibody/components.py', 'multibody/suspension.py',
-                  'transcription', 'road.py', 'driver', 'cache.py')
+_MODEL_SOURCES = (
+    'models',
+    'multibody/components.py',
+    'multibody/suspension.py',
+    'transcription',
+    'road.py',
+    'driver',
+    'cache.py',
+)
 
 
 def cache_dir() -> Path:
@@ -50,6 +58,7 @@ def _source_digest() -> str:
 def coloring_key(config: StudyConfig, fidelity: str) -> str:
     """Hex digest identifying the total-Jacobian structure of one problem."""
     from suspopt.multibody.mechanism import load_mechanism
+
     v = config.vehicle
     structure = {
         'fidelity': fidelity,
@@ -61,8 +70,9 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
         'source': _source_digest(),
     }
     if fidelity == 'mixed':
-        structure['mechanisms'] = [load_mechanism(ax.mechanism, suspension=True).structure()
-                                   for ax in v.axles]
+        structure['mechanisms'] = [
+            load_mechanism(ax.mechanism, suspension=True).structure() for ax in v.axles
+        ]
         structure['mount'] = config.multibody.mount
     blob = json.dumps(structure, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:32]

@@ -1,4 +1,5 @@
 """The study file written by ``suspopt init``: a default car as commented TOML."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -28,76 +29,111 @@ def default_config_toml(model: str = 'half_car') -> str:
     v = c.vehicle
     tv = toml_value
     if full:
-        head = ['# suspopt study file: the default full car, a BMW E90 (330i, 2006) as',
-                '# Chrono::Vehicle models it (data credited there to SAE 2007-01-0817/-0818;',
-                '# see suspopt/vehicles.py). SI units throughout.']
+        head = [
+            '# suspopt study file: the default full car, a BMW E90 (330i, 2006) as',
+            '# Chrono::Vehicle models it (data credited there to SAE 2007-01-0817/-0818;',
+            '# see suspopt/vehicles.py). SI units throughout.',
+        ]
     else:
-        head = ["# suspopt study file: the paper's case (Cheong et al., \"Optimal design of",
-                '# vehicle dynamics using gradient-based, mixed-fidelity multidisciplinary',
-                '# optimization\", Table 1-3, and the two-bump road). SI units throughout.']
-    lines = head + ['# Every key is optional; a missing key takes the value shown here.', '',
-                    '[vehicle]',
-                    f'model = {tv(v.model)}            # half_car | full_car',
-                    f'chassis_mass = {tv(v.chassis_mass)}          # M [kg] (sprung)',
-                    f'chassis_pitch_inertia = {tv(v.chassis_pitch_inertia)} # I [kg m^2]']
+        head = [
+            '# suspopt study file: the paper\'s case (Cheong et al., "Optimal design of',
+            '# vehicle dynamics using gradient-based, mixed-fidelity multidisciplinary',
+            '# optimization", Table 1-3, and the two-bump road). SI units throughout.',
+        ]
+    lines = head + [
+        '# Every key is optional; a missing key takes the value shown here.',
+        '',
+        '[vehicle]',
+        f'model = {tv(v.model)}            # half_car | full_car',
+        f'chassis_mass = {tv(v.chassis_mass)}          # M [kg] (sprung)',
+        f'chassis_pitch_inertia = {tv(v.chassis_pitch_inertia)} # I [kg m^2]',
+    ]
     if full:
         lines.append(f'chassis_roll_inertia = {tv(v.chassis_roll_inertia)}  # I_x [kg m^2]')
     for axle, ax, sign in (('front', v.front, 'ahead of'), ('rear', v.rear, 'behind')):
-        lines += ['', f'[vehicle.{axle}]',
-                  f'axle_position = {tv(ax.axle_position)}   # a [m] {sign} the CG '
-                  '(negative: behind)',
-                  f'wheel_mass = {tv(ax.wheel_mass)}       # [kg] per wheel (low fidelity)',
-                  f'tyre_stiffness = {tv(ax.tyre_stiffness)}  # k_T [N/m] per wheel',
-                  f'mechanism = {tv(ax.mechanism)}  # multibody module: built-in name or '
-                  'TOML path']
+        lines += [
+            '',
+            f'[vehicle.{axle}]',
+            f'axle_position = {tv(ax.axle_position)}   # a [m] {sign} the CG (negative: behind)',
+            f'wheel_mass = {tv(ax.wheel_mass)}       # [kg] per wheel (low fidelity)',
+            f'tyre_stiffness = {tv(ax.tyre_stiffness)}  # k_T [N/m] per wheel',
+            f'mechanism = {tv(ax.mechanism)}  # multibody module: built-in name or TOML path',
+        ]
         if full:
-            lines += [f'track = {tv(ax.track)}          # wheel track [m]',
-                      f'anti_roll_bar = {tv(ax.anti_roll_bar)}     # its rate k_R is designed']
+            lines += [
+                f'track = {tv(ax.track)}          # wheel track [m]',
+                f'anti_roll_bar = {tv(ax.anti_roll_bar)}     # its rate k_R is designed',
+            ]
     road = c.road
-    lines += ['', '[maneuver]', f'speed = {tv(c.maneuver.speed)}     # v [m/s], constant',
-              f'horizon = {tv(c.maneuver.horizon)}    # T [s]; zero initial state at t = 0', '',
-              '[road]',
-              '# profile = two_bumps | bump | step | iso8608 | csv | two_tracks; they take:',
-              '#   two_bumps: height, length, starts    bump: height, length, start',
-              '#   step: height, position, ramp_length',
-              '#   iso8608: road_class ("A".."H"), seed, n_min, n_max [cycle/m], length [m],',
-              '#            fade_in [m], coherence (isotropic | identical | independent:',
-              '#            the right track of a full car)',
-              '#   csv: file  (distance [m], height [m] per row; header allowed)',
-              '#   two_tracks: left = { profile = ... }, right = { profile = ... } (full car)']
+    lines += [
+        '',
+        '[maneuver]',
+        f'speed = {tv(c.maneuver.speed)}     # v [m/s], constant',
+        f'horizon = {tv(c.maneuver.horizon)}    # T [s]; zero initial state at t = 0',
+        '',
+        '[road]',
+        '# profile = two_bumps | bump | step | iso8608 | csv | two_tracks; they take:',
+        '#   two_bumps: height, length, starts    bump: height, length, start',
+        '#   step: height, position, ramp_length',
+        '#   iso8608: road_class ("A".."H"), seed, n_min, n_max [cycle/m], length [m],',
+        '#            fade_in [m], coherence (isotropic | identical | independent:',
+        '#            the right track of a full car)',
+        '#   csv: file  (distance [m], height [m] per row; header allowed)',
+        '#   two_tracks: left = { profile = ... }, right = { profile = ... } (full car)',
+    ]
     lines += [f'{k} = {tv(val)}' for k, val in road.items()]
-    lines += ['', '# design variables: initial value and bounds; optimize = false holds one at',
-              '# its initial value' + (' (paper Table 3)' if not full else ''),
-              '[design]', f'per_corner = {tv(c.design.per_corner)}'
-              + ('   # true: one variable per wheel (k_S1L, ...)' if full else '')]
+    lines += [
+        '',
+        '# design variables: initial value and bounds; optimize = false holds one at',
+        '# its initial value' + (' (paper Table 3)' if not full else ''),
+        '[design]',
+        f'per_corner = {tv(c.design.per_corner)}'
+        + ('   # true: one variable per wheel (k_S1L, ...)' if full else ''),
+    ]
     for name, dv in c.design.variables.items():
         unit = {'k_S': 'N/m', 'c_S': 'N s/m', 'k_R': 'N m/rad'}[name[:3]]
-        lines += [f'[design.{name}]  # [{unit}]',
-                  f'initial = {tv(dv.initial)}\nlower = {tv(dv.lower)}\nupper = {tv(dv.upper)}'
-                  f'\noptimize = {tv(dv.optimize)}']
+        lines += [
+            f'[design.{name}]  # [{unit}]',
+            f'initial = {tv(dv.initial)}\nlower = {tv(dv.lower)}\nupper = {tv(dv.upper)}'
+            f'\noptimize = {tv(dv.optimize)}',
+        ]
     o, t, op, mb = c.objective, c.transcription, c.optimizer, c.multibody
-    lines += ['', '[objective]                    # f = sum_k w_k J_k / s_k',
-              f'normalization = {tv(o.normalization)}  # reference | '
-              + ('paper | ' if not full else '') + 'custom (then set [objective.scales])',
-              f'aggregate = {tv(o.aggregate)}           # several scenarios: sum | max',
-              '[objective.weights]            # by term: chassis accelerations, wheel travel']
+    lines += [
+        '',
+        '[objective]                    # f = sum_k w_k J_k / s_k',
+        f'normalization = {tv(o.normalization)}  # reference | '
+        + ('paper | ' if not full else '')
+        + 'custom (then set [objective.scales])',
+        f'aggregate = {tv(o.aggregate)}           # several scenarios: sum | max',
+        '[objective.weights]            # by term: chassis accelerations, wheel travel',
+    ]
     lines += [f'{k} = {tv(w)}' for k, w in o.weights.items()]
-    lines += ['', '[transcription]                # Dymos Radau collocation',
-              f'segments = {tv(t.segments)}               # a number, or "auto" (from the '
-              'horizon, wheel hop and road)',
-              f'order = {t.order}',
-              f'initial_guess = {tv(t.initial_guess)}   # auto | simulate | zero', '',
-              '[optimizer]                    # IPOPT',
-              f'max_iter = {op.max_iter}', f'tol = {tv(op.tol)}',
-              f"print_level = {op.print_level}              # IPOPT's own console output (0-12)",
-              'options = {}                   # further IPOPT options, e.g. { mu_strategy = '
-              '"adaptive" }', '',
-              '[multibody]                    # finite differences of the black-box module',
-              f'fd_form = {tv(mb.fd_form)}         # forward | central',
-              f'fd_step = {tv(mb.fd_step)}             # absolute step, SI units of each input',
-              f'mount = {tv(mb.mount)}            # ground (the paper: frame fixed, chassis '
-              'feels F_S) | chassis (frame on the chassis, all reactions)',
-              '', '# Several load cases sharing the design (robust design): add tables like',
-              '# [[scenario]]', '# name = "city"', '# weight = 1.0', '# speed = 8.0',
-              '# road = { profile = "iso8608", road_class = "D", seed = 3 }', '']
+    lines += [
+        '',
+        '[transcription]                # Dymos Radau collocation',
+        f'segments = {tv(t.segments)}               # a number, or "auto" (from the '
+        'horizon, wheel hop and road)',
+        f'order = {t.order}',
+        f'initial_guess = {tv(t.initial_guess)}   # auto | simulate | zero',
+        '',
+        '[optimizer]                    # IPOPT',
+        f'max_iter = {op.max_iter}',
+        f'tol = {tv(op.tol)}',
+        f"print_level = {op.print_level}              # IPOPT's own console output (0-12)",
+        'options = {}                   # further IPOPT options, e.g. { mu_strategy = "adaptive" }',
+        '',
+        '[multibody]                    # finite differences of the black-box module',
+        f'fd_form = {tv(mb.fd_form)}         # forward | central',
+        f'fd_step = {tv(mb.fd_step)}             # absolute step, SI units of each input',
+        f'mount = {tv(mb.mount)}            # ground (the paper: frame fixed, chassis '
+        'feels F_S) | chassis (frame on the chassis, all reactions)',
+        '',
+        '# Several load cases sharing the design (robust design): add tables like',
+        '# [[scenario]]',
+        '# name = "city"',
+        '# weight = 1.0',
+        '# speed = 8.0',
+        '# road = { profile = "iso8608", road_class = "D", seed = 3 }',
+        '',
+    ]
     return '\n'.join(lines)

@@ -10,37 +10,49 @@ optimum) in the three models (half car, ground mount, chassis mount), every eval
 collocation and verified by time marching. It writes ``coupling.json`` (after every step,
 atomically), ``table.md`` and ``figures/coupling.png``.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from suspopt.config import StudyConfig
-from suspopt.results import (COUPLING_DESIGN_LABELS, COUPLING_DESIGNS, COUPLING_MODEL_LABELS,
-                             RunDirectory, write_json)
-from suspopt.study import (Progress, StepFailed, evaluate, optimize, resolve_scales,
-                           verified)
+from suspopt.results import (
+    COUPLING_DESIGN_LABELS,
+    COUPLING_DESIGNS,
+    COUPLING_MODEL_LABELS,
+    RunDirectory,
+    write_json,
+)
+from suspopt.study import Progress, StepFailed, evaluate, optimize, resolve_scales, verified
 from suspopt.transcription.problem import VehicleProblem
 
 #: the three models: (fidelity, mount)
-MODELS = {'low': ('low', 'ground'), 'ground': ('mixed', 'ground'),
-          'chassis': ('mixed', 'chassis')}
+MODELS = {'low': ('low', 'ground'), 'ground': ('mixed', 'ground'), 'chassis': ('mixed', 'chassis')}
 #: labels and the four designs (with the model whose optimum each is): see suspopt.results
-MODEL_LABELS, DESIGNS, DESIGN_LABELS = (COUPLING_MODEL_LABELS, COUPLING_DESIGNS,
-                                        COUPLING_DESIGN_LABELS)
+MODEL_LABELS, DESIGNS, DESIGN_LABELS = (
+    COUPLING_MODEL_LABELS,
+    COUPLING_DESIGNS,
+    COUPLING_DESIGN_LABELS,
+)
 
 
 def model_config(config: StudyConfig, model: str) -> StudyConfig:
     """The study description of one of the three :data:`MODELS`."""
-    return config.replace(multibody=dataclasses.replace(config.multibody,
-                                                        mount=MODELS[model][1]))
+    return config.replace(multibody=dataclasses.replace(config.multibody, mount=MODELS[model][1]))
 
 
-def run_coupling(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
-                 progress: Progress | None = None, log: Callable[[str], None] | None = None,
-                 verify: bool = True) -> dict[str, Any]:
+def run_coupling(
+    config: StudyConfig,
+    out_dir: str | Path | RunDirectory,
+    *,
+    progress: Progress | None = None,
+    log: Callable[[str], None] | None = None,
+    verify: bool = True,
+) -> dict[str, Any]:
     """Both couplings' two-step studies and the 4 × 3 cross-evaluation (module docstring).
 
     Every optimization starts from the collocation solution of its starting design in its
@@ -53,13 +65,24 @@ def run_coupling(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
     say = log or (lambda msg: None)
     t0 = time.perf_counter()
     scales = resolve_scales(config)
-    config_dict = out_dir.keep_inputs(config.to_dict()) if isinstance(out_dir, RunDirectory) \
+    config_dict = (
+        out_dir.keep_inputs(config.to_dict())
+        if isinstance(out_dir, RunDirectory)
         else config.to_dict()
+    )
     res: dict[str, Any] = {
-        'config': config_dict, 'scales': list(scales), 'terms': list(config.terms()),
-        'design_names': list(config.design_names()), 'models': dict(MODEL_LABELS),
-        'normalization': config.objective.normalization, 'designs': {}, 'steps': {},
-        'evaluations': {m: {} for m in MODELS}, 'verify': verify, 'complete': False}
+        'config': config_dict,
+        'scales': list(scales),
+        'terms': list(config.terms()),
+        'design_names': list(config.design_names()),
+        'models': dict(MODEL_LABELS),
+        'normalization': config.objective.normalization,
+        'designs': {},
+        'steps': {},
+        'evaluations': {m: {} for m in MODELS},
+        'verify': verify,
+        'complete': False,
+    }
     save = lambda: write_json(out / 'coupling.json', res)  # noqa: E731
     save()
     configs = {m: model_config(config, m) for m in MODELS}
@@ -74,22 +97,37 @@ def run_coupling(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
             fid = MODELS[model][0]
             if design in res['evaluations'][model]:
                 return res['evaluations'][model][design]
-            say(f'evaluating the {design.replace("_", " ")} in the {MODEL_LABELS[model]} '
-                'model')
-            rec = evaluate(configs[model], fid, designs[design], scales=scales,
-                           problem=problems[model], guess=guess, verify=verify)
+            say(f'evaluating the {design.replace("_", " ")} in the {MODEL_LABELS[model]} model')
+            rec = evaluate(
+                configs[model],
+                fid,
+                designs[design],
+                scales=scales,
+                problem=problems[model],
+                guess=guess,
+                verify=verify,
+            )
             res['evaluations'][model][design] = rec
             save()
             return rec
 
-        for model, start in (('low', 'initial'), ('ground', 'low_optimum'),
-                             ('chassis', 'low_optimum')):
+        for model, start in (
+            ('low', 'initial'),
+            ('ground', 'low_optimum'),
+            ('chassis', 'low_optimum'),
+        ):
             fid = MODELS[model][0]
             cell(model, start)
-            say(f'optimizing the {MODEL_LABELS[model]} model from the '
-                f'{start.replace("_", " ")}')
-            step = optimize(configs[model], fid, start=designs[start], scales=scales,
-                            problem=problems[model], guess='keep', verify=verify)
+            say(f'optimizing the {MODEL_LABELS[model]} model from the {start.replace("_", " ")}')
+            step = optimize(
+                configs[model],
+                fid,
+                start=designs[start],
+                scales=scales,
+                problem=problems[model],
+                guess='keep',
+                verify=verify,
+            )
             res['steps'][model] = step
             save()
             if not step['success']:
@@ -101,8 +139,12 @@ def run_coupling(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
         for model in MODELS:
             for design in DESIGNS:
                 cell(model, design)
-        unverified = [f'{d} in {m}' for m in MODELS for d, e in res['evaluations'][m].items()
-                      if verified(e) is False]
+        unverified = [
+            f'{d} in {m}'
+            for m in MODELS
+            for d, e in res['evaluations'][m].items()
+            if verified(e) is False
+        ]
         res['verified'] = None if not verify else not unverified
         if unverified:
             res['warnings'] = [f'not verified by time marching: {", ".join(unverified)}']
@@ -131,8 +173,9 @@ def summary(res: dict[str, Any]) -> dict[str, Any]:
         'design_change': {n: c[n] / g[n] - 1.0 for n in g},
         'f_chassis_at_ground_optimum': f['chassis']['ground_optimum'],
         'f_chassis_at_chassis_optimum': f['chassis']['chassis_optimum'],
-        'loss_of_paper_optimum_in_chassis_model':
-            f['chassis']['ground_optimum'] / f['chassis']['chassis_optimum'] - 1.0,
+        'loss_of_paper_optimum_in_chassis_model': f['chassis']['ground_optimum']
+        / f['chassis']['chassis_optimum']
+        - 1.0,
         'f_ground_at_chassis_optimum': f['ground']['chassis_optimum'],
         'f_ground_at_ground_optimum': f['ground']['ground_optimum'],
     }

@@ -12,6 +12,7 @@ The command line's exit codes:
 * 4 — ``RunError``: the environment failed (an unwritable or full output directory);
 * 130 — interrupted (Ctrl-C or SIGTERM); what finished is kept.
 """
+
 from __future__ import annotations
 
 

@@ -12,11 +12,13 @@ point is reported by its comfort C (the mean normalized chassis term) and road h
 (the mean normalized wheel term); with the ``reference`` normalization both are 1 at the
 initial design; smaller is better. Every point is verified by time marching.
 """
+
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -38,32 +40,52 @@ def comfort_share_weights(terms, alpha: float) -> dict[str, float]:
     return {t: (a / len(chassis) if t in chassis else (1.0 - a) / len(wheels)) for t in terms}
 
 
-def comfort_and_road_holding(terms: dict[str, float],
-                             scales: dict[str, float]) -> tuple[float, float]:
+def comfort_and_road_holding(
+    terms: dict[str, float], scales: dict[str, float]
+) -> tuple[float, float]:
     """C (mean normalized chassis term) and R (mean normalized wheel term) of ``terms``."""
     chassis, wheels = _split(terms)
-    return (sum(terms[t] / scales[t] for t in chassis) / len(chassis),
-            sum(terms[t] / scales[t] for t in wheels) / len(wheels))
+    return (
+        sum(terms[t] / scales[t] for t in chassis) / len(chassis),
+        sum(terms[t] / scales[t] for t in wheels) / len(wheels),
+    )
 
 
-def _point(alpha: float, weights: dict[str, float], res: dict[str, Any],
-           scales: dict[str, float]) -> dict[str, Any]:
+def _point(
+    alpha: float, weights: dict[str, float], res: dict[str, Any], scales: dict[str, float]
+) -> dict[str, Any]:
     """One point of the front from an optimization's record."""
     ok = res['success']
     C, R = comfort_and_road_holding(res['terms'] if ok else res['terms_at_stop'], scales)
-    return {'alpha': float(alpha), 'weights': weights, 'design': res['design'],
-            'objective': res['objective'], 'terms': res['terms'],
-            'comfort': C if ok else None, 'road_holding': R if ok else None,
-            **({} if ok else {'comfort_at_stop': C, 'road_holding_at_stop': R}),
-            'success': ok, 'status': res['status'], 'verified': res.get('verified'),
-            'verification': res['verification'], 'iterations': res['iterations'],
-            'wall_time_s': res['wall_time_s'], 'history': res['history']}
+    return {
+        'alpha': float(alpha),
+        'weights': weights,
+        'design': res['design'],
+        'objective': res['objective'],
+        'terms': res['terms'],
+        'comfort': C if ok else None,
+        'road_holding': R if ok else None,
+        **({} if ok else {'comfort_at_stop': C, 'road_holding_at_stop': R}),
+        'success': ok,
+        'status': res['status'],
+        'verified': res.get('verified'),
+        'verification': res['verification'],
+        'iterations': res['iterations'],
+        'wall_time_s': res['wall_time_s'],
+        'history': res['history'],
+    }
 
 
-def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
-               fidelity: str = 'low', points: int = 9, progress: Progress | None = None,
-               log: Callable[[str], None] | None = None, verify: bool = True
-               ) -> dict[str, Any]:
+def run_pareto(
+    config: StudyConfig,
+    out_dir: str | Path | RunDirectory,
+    *,
+    fidelity: str = 'low',
+    points: int = 9,
+    progress: Progress | None = None,
+    log: Callable[[str], None] | None = None,
+    verify: bool = True,
+) -> dict[str, Any]:
     """Optimize ``fidelity``'s model for ``points`` comfort shares α = 0 … 1, writing
     ``pareto.json`` after every point, the case recorder ``cases.sql`` (the trajectory
     at every point, as case ``alpha=<α>``) and, at the end, ``table.md`` and
@@ -83,25 +105,38 @@ def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
     scales = resolve_scales(config)
     terms = config.terms()
     config_dict = keep_inputs(out, config.to_dict())
-    data: dict[str, Any] = {'config': config_dict, 'fidelity': fidelity,
-                            'scales': list(scales), 'terms': list(terms),
-                            'design_names': list(config.design_names()),
-                            'bounds': config.design.bounds(),
-                            'normalization': config.objective.normalization,
-                            'points': [], 'complete': False}
+    data: dict[str, Any] = {
+        'config': config_dict,
+        'fidelity': fidelity,
+        'scales': list(scales),
+        'terms': list(terms),
+        'design_names': list(config.design_names()),
+        'bounds': config.design.bounds(),
+        'normalization': config.objective.normalization,
+        'points': [],
+        'complete': False,
+    }
     save = lambda: write_json(out / 'pareto.json', data)  # noqa: E731
     save()
-    problem = VehicleProblem(config, fidelity, scales, recorder=out / 'cases.sql',
-                             progress=progress)
+    problem = VehicleProblem(
+        config, fidelity, scales, recorder=out / 'cases.sql', progress=progress
+    )
     try:
         start = config.design.initial()
         say('the initial design in this model (for reference)')
-        init = evaluate(config, fidelity, start, scales=scales, problem=problem,
-                        label='initial', verify=False)
-        C, R = comfort_and_road_holding(init['terms'], scales[0]) if init['success'] \
-            else (None, None)  # not converged: no reference point
-        data['initial'] = {'design': start, 'terms': init['terms'], 'comfort': C,
-                           'road_holding': R, 'success': init['success']}
+        init = evaluate(
+            config, fidelity, start, scales=scales, problem=problem, label='initial', verify=False
+        )
+        C, R = (
+            comfort_and_road_holding(init['terms'], scales[0]) if init['success'] else (None, None)
+        )  # not converged: no reference point
+        data['initial'] = {
+            'design': start,
+            'terms': init['terms'],
+            'comfort': C,
+            'road_holding': R,
+            'success': init['success'],
+        }
         save()
         guess = 'keep'  # the first point starts from the initial design's solution
         for alpha in np.linspace(0.0, 1.0, points):
@@ -109,8 +144,16 @@ def run_pareto(config: StudyConfig, out_dir: str | Path | RunDirectory, *,
             cfg = config.with_weights(w)
             say(f'comfort share {alpha:.3f}')
             try:
-                res = optimize(cfg, fidelity, start=start, scales=scales, problem=problem,
-                               guess=guess, label=f'alpha={alpha:.6f}', verify=verify)
+                res = optimize(
+                    cfg,
+                    fidelity,
+                    start=start,
+                    scales=scales,
+                    problem=problem,
+                    guess=guess,
+                    label=f'alpha={alpha:.6f}',
+                    verify=verify,
+                )
             except Interrupted as stop:
                 if stop.result and stop.result['success']:
                     data['points'].append(_point(alpha, w, stop.result, scales[0]))

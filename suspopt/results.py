@@ -11,6 +11,7 @@
   ``result.json``, a study step, a Pareto point or a sweep task holds), with its
   time-marching verification (or the statement that it was skipped).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -18,8 +19,9 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -27,22 +29,45 @@ from suspopt.errors import ConfigError, RunError
 from suspopt.trajectory import Trajectory
 
 #: files and folders a run may write into its directory (cleared by ``--overwrite``)
-RUN_OUTPUTS = ('result.json', 'study.json', 'pareto.json', 'compare.json', 'coupling.json',
-               'table.md',
-               'cases.sql', 'low.sql', 'mixed.sql', 'time_marching.npz', 'figures', 'inputs',
-               'sweep.json', 'summary.csv', 'tasks')
+RUN_OUTPUTS = (
+    'result.json',
+    'study.json',
+    'pareto.json',
+    'compare.json',
+    'coupling.json',
+    'table.md',
+    'cases.sql',
+    'low.sql',
+    'mixed.sql',
+    'time_marching.npz',
+    'figures',
+    'inputs',
+    'sweep.json',
+    'summary.csv',
+    'tasks',
+)
 LOCK = '.suspopt.lock'
 #: the designs of the two-step study, as recorded (study.json, case labels)
 STUDY_DESIGNS = ('initial', 'low_optimum', 'mixed_optimum')
 #: the three models of ``suspopt coupling`` (suspopt.coupling), the four designs and the model
 #: whose optimum each is (initial: none)
-COUPLING_MODEL_LABELS = {'low': 'half car', 'ground': 'multibody, ground mount (paper)',
-                         'chassis': 'multibody, chassis mount'}
-COUPLING_DESIGNS = {'initial': None, 'low_optimum': 'low', 'ground_optimum': 'ground',
-                    'chassis_optimum': 'chassis'}
-COUPLING_DESIGN_LABELS = {'initial': 'Initial guess', 'low_optimum': 'Low-fidelity optimum',
-                          'ground_optimum': 'Paper-coupling optimum (ground mount)',
-                          'chassis_optimum': 'Consistent-coupling optimum (chassis mount)'}
+COUPLING_MODEL_LABELS = {
+    'low': 'half car',
+    'ground': 'multibody, ground mount (paper)',
+    'chassis': 'multibody, chassis mount',
+}
+COUPLING_DESIGNS = {
+    'initial': None,
+    'low_optimum': 'low',
+    'ground_optimum': 'ground',
+    'chassis_optimum': 'chassis',
+}
+COUPLING_DESIGN_LABELS = {
+    'initial': 'Initial guess',
+    'low_optimum': 'Low-fidelity optimum',
+    'ground_optimum': 'Paper-coupling optimum (ground mount)',
+    'chassis_optimum': 'Consistent-coupling optimum (chassis mount)',
+}
 
 
 def _json_default(obj: Any) -> Any:
@@ -109,8 +134,10 @@ def read_json(path: str | Path) -> dict[str, Any]:
     try:
         data = json.loads(path.read_text())
     except FileNotFoundError:
-        raise ConfigError(f'{path.parent}: no {path.name} (not a suspopt output directory, '
-                          'or the run wrote nothing yet)') from None
+        raise ConfigError(
+            f'{path.parent}: no {path.name} (not a suspopt output directory, '
+            'or the run wrote nothing yet)'
+        ) from None
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ConfigError(f'{path}: damaged results file ({err})') from None
     except OSError as err:
@@ -131,7 +158,7 @@ class RunDirectory:
         self.overwrite = overwrite
         self._lock_fd: int | None = None
 
-    def __enter__(self) -> 'RunDirectory':
+    def __enter__(self) -> RunDirectory:
         p = self.path
         if p.exists() and not p.is_dir():
             raise ConfigError(f'--out: {p} exists and is not a directory')
@@ -145,11 +172,19 @@ class RunDirectory:
         try:
             existing = [q for q in p.iterdir() if q.name != LOCK]
             if existing and not self.overwrite:
-                raise ConfigError(f'--out: {p} already contains results; choose another '
-                                  'directory or pass --overwrite')
+                raise ConfigError(
+                    f'--out: {p} already contains results; choose another '
+                    'directory or pass --overwrite'
+                )
             for q in existing:  # --overwrite: nothing of an earlier run survives
-                if q.name in RUN_OUTPUTS or q.suffix in ('.sql', '.json', '.md', '.npz', '.png',
-                                                         '.tmp'):
+                if q.name in RUN_OUTPUTS or q.suffix in (
+                    '.sql',
+                    '.json',
+                    '.md',
+                    '.npz',
+                    '.png',
+                    '.tmp',
+                ):
                     shutil.rmtree(q) if q.is_dir() else q.unlink()
         except OSError as err:
             self._unlock()
@@ -164,6 +199,7 @@ class RunDirectory:
 
     def _lock(self) -> None:
         import fcntl
+
         path = self.path / LOCK
         try:
             fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
@@ -173,8 +209,10 @@ class RunDirectory:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             os.close(fd)
-            raise ConfigError(f'--out: {self.path} is in use by another suspopt run (lock '
-                              f'{LOCK}); wait for it or choose another directory') from None
+            raise ConfigError(
+                f'--out: {self.path} is in use by another suspopt run (lock '
+                f'{LOCK}); wait for it or choose another directory'
+            ) from None
         os.ftruncate(fd, 0)
         os.write(fd, f'{os.getpid()}\n'.encode())
         self._lock_fd = fd
@@ -202,6 +240,7 @@ class RunDirectory:
 def keep_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[str, Any]:
     """:meth:`RunDirectory.keep_inputs` for any output directory."""
     from suspopt.multibody.mechanism import builtin_mechanisms
+
     inputs = Path(directory) / 'inputs'
     out = json.loads(json.dumps(config_dict))
     copied: dict[str, str] = {}
@@ -243,8 +282,7 @@ def resolve_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[s
     out = json.loads(json.dumps(config_dict))
 
     def fix(path: Any) -> Any:
-        return str(base / path) if isinstance(path, str) and path.startswith('inputs/') \
-            else path
+        return str(base / path) if isinstance(path, str) and path.startswith('inputs/') else path
 
     def roads(road: Any) -> None:
         if isinstance(road, dict):
@@ -269,6 +307,7 @@ def read_trajectory(recorder: Any, label: str, scenario: int = 0) -> Trajectory 
     ``recorder`` is a case recorder file or an open ``CaseReader`` (open it once to read
     several cases)."""
     import openmdao.api as om
+
     try:
         cr = om.CaseReader(str(recorder)) if isinstance(recorder, (str, Path)) else recorder
         if label not in cr.list_cases('problem', recurse=False, out_stream=None):
@@ -283,11 +322,12 @@ def read_trajectory(recorder: Any, label: str, scenario: int = 0) -> Trajectory 
         prom = meta['prom_name']
         if prom.startswith(ts):
             val = np.asarray(meta['val'])
-            name = prom[len(ts):]
+            name = prom[len(ts) :]
             values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
     if 'time' not in values:
         return None
     J = np.asarray(case.get_val(f'quadrature_{scenario}.J'))
     values['wheel_z'] = values['q_W'] if 'q_W' in values else values['z_W']
-    return Trajectory(t=values.pop('time'), values=values, J=J,
-                      info={'method': 'collocation', 'label': label})
+    return Trajectory(
+        t=values.pop('time'), values=values, J=J, info={'method': 'collocation', 'label': label}
+    )

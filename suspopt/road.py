@@ -21,6 +21,7 @@ profile under both tracks, two profiles (``profile = "two_tracks"`` with ``left`
 with the left one by the isotropic model of Kamash & Robson (1978): for the ISO waviness
 2, the coherence at track separation B is ``γ(n) = x K₁(x)``, ``x = 2π n B``.
 """
+
 from __future__ import annotations
 
 import csv
@@ -65,8 +66,9 @@ class RoadProfile:
 
     def to_dict(self) -> dict[str, Any]:
         d = {'profile': self.kind}
-        d.update({f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)
-                  if f.init})
+        d.update(
+            {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self) if f.init}
+        )
         return d
 
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
@@ -80,8 +82,10 @@ MAX_FEATURE_HEIGHT = 1.0
 
 def _height_problems(height: float, where: str) -> list[str]:
     if abs(height) > MAX_FEATURE_HEIGHT:
-        return [f'{where}.height: {height:g} m is beyond a road feature (at most '
-                f'{MAX_FEATURE_HEIGHT:g} m; heights are in metres: 5 cm is 0.05)']
+        return [
+            f'{where}.height: {height:g} m is beyond a road feature (at most '
+            f'{MAX_FEATURE_HEIGHT:g} m; heights are in metres: 5 cm is 0.05)'
+        ]
     return []
 
 
@@ -176,8 +180,11 @@ class SmoothStep(RoadProfile):
     def dr_ds(self, s: ArrayLike) -> np.ndarray:
         x = (np.asarray(s, dtype=float) - self.position) / self.ramp_length
         on = (x >= 0.0) & (x <= 1.0)
-        return np.where(on, 0.5 * self.height * np.pi / self.ramp_length
-                        * np.sin(np.pi * np.clip(x, 0.0, 1.0)), 0.0)
+        return np.where(
+            on,
+            0.5 * self.height * np.pi / self.ramp_length * np.sin(np.pi * np.clip(x, 0.0, 1.0)),
+            0.0,
+        )
 
     def breakpoints(self) -> list[float]:
         return [self.position, self.position + self.ramp_length]
@@ -192,8 +199,10 @@ class SmoothStep(RoadProfile):
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
         errs = _height_problems(self.height, where)
         if not self.ramp_length > 0.0:
-            errs.append(f'{where}.ramp_length: must be > 0 (a sharp step is not integrable), '
-                        f'got {self.ramp_length}')
+            errs.append(
+                f'{where}.ramp_length: must be > 0 (a sharp step is not integrable), '
+                f'got {self.ramp_length}'
+            )
         return errs
 
 
@@ -247,24 +256,40 @@ class ISO8608Road(RoadProfile):
 
     @property
     def _spline(self):
-        return _iso8608_spline(self.road_class.upper(), self.seed, self.n_min, self.n_max,
-                               self.length, self.fade_in, self.coherence, 0, 0.0)
+        return _iso8608_spline(
+            self.road_class.upper(),
+            self.seed,
+            self.n_min,
+            self.n_max,
+            self.length,
+            self.fade_in,
+            self.coherence,
+            0,
+            0.0,
+        )
 
-    def track(self, index: int, separation: float) -> 'RoadProfile':
+    def track(self, index: int, separation: float) -> RoadProfile:
         """This road under wheel track ``index`` (0 left, 1 right), the tracks
         ``separation`` metres apart: the right track shares the left one's lines, each mixed
         with an independent one by the coherence model (same PSD, coherence γ(n))."""
-        return self if index == 0 else _ISO8608Track(
-            **{f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init},
-            track_index=index, separation=separation)
+        return (
+            self
+            if index == 0
+            else _ISO8608Track(
+                **{f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init},
+                track_index=index,
+                separation=separation,
+            )
+        )
 
     def r(self, s: ArrayLike) -> np.ndarray:
         return self._spline(np.clip(np.asarray(s, dtype=float), 0.0, self.length))
 
     def dr_ds(self, s: ArrayLike) -> np.ndarray:
         s = np.asarray(s, dtype=float)
-        return np.where((s > 0.0) & (s < self.length),
-                        self._spline(np.clip(s, 0.0, self.length), 1), 0.0)
+        return np.where(
+            (s > 0.0) & (s < self.length), self._spline(np.clip(s, 0.0, self.length), 1), 0.0
+        )
 
     def breakpoints(self) -> list[float]:
         return [0.0, self.fade_in] if self.fade_in > 0.0 else [0.0]
@@ -275,29 +300,40 @@ class ISO8608Road(RoadProfile):
     def validate(self, required_length: float, where: str = 'road') -> list[str]:
         errs = []
         if str(self.road_class).upper() not in ISO8608_CLASSES:
-            errs.append(f"{where}.road_class: must be one of {', '.join(ISO8608_CLASSES)}, "
-                        f'got {self.road_class!r}')
+            errs.append(
+                f'{where}.road_class: must be one of {", ".join(ISO8608_CLASSES)}, '
+                f'got {self.road_class!r}'
+            )
         if not 0.0 < self.n_min < self.n_max:
-            errs.append(f'{where}.n_min/n_max: need 0 < n_min < n_max, '
-                        f'got {self.n_min}, {self.n_max}')
+            errs.append(
+                f'{where}.n_min/n_max: need 0 < n_min < n_max, got {self.n_min}, {self.n_max}'
+            )
         elif not self.length > 0.0:
             errs.append(f'{where}.length: must be > 0, got {self.length}')
         elif self.length * self.samples_per_wavelength * self.n_max > self.max_samples:
-            errs.append(f'{where}.length: {self.length:g} m at n_max = {self.n_max:g} cycle/m '
-                        f'needs {self.length * self.samples_per_wavelength * self.n_max:.3g} '
-                        f'road samples (at most {self.max_samples:.3g}); shorten it or lower '
-                        'n_max')
+            errs.append(
+                f'{where}.length: {self.length:g} m at n_max = {self.n_max:g} cycle/m '
+                f'needs {self.length * self.samples_per_wavelength * self.n_max:.3g} '
+                f'road samples (at most {self.max_samples:.3g}); shorten it or lower '
+                'n_max'
+            )
         elif self.length < required_length:
-            errs.append(f'{where}.length: the drive needs {required_length:g} m (speed × '
-                        f'horizon) but the road is {self.length:g} m long')
+            errs.append(
+                f'{where}.length: the drive needs {required_length:g} m (speed × '
+                f'horizon) but the road is {self.length:g} m long'
+            )
         elif self.length * self.n_min < 1.0:
-            errs.append(f'{where}.length: {self.length:g} m holds no frequency line of '
-                        f'[{self.n_min:g}, {self.n_max:g}] cycle/m (lines are 1/length apart)')
+            errs.append(
+                f'{where}.length: {self.length:g} m holds no frequency line of '
+                f'[{self.n_min:g}, {self.n_max:g}] cycle/m (lines are 1/length apart)'
+            )
         if self.fade_in < 0.0:
             errs.append(f'{where}.fade_in: must be >= 0, got {self.fade_in}')
         if self.coherence not in COHERENCE_MODELS:
-            errs.append(f'{where}.coherence: must be one of {", ".join(COHERENCE_MODELS)}, '
-                        f'got {self.coherence!r}')
+            errs.append(
+                f'{where}.coherence: must be one of {", ".join(COHERENCE_MODELS)}, '
+                f'got {self.coherence!r}'
+            )
         return errs
 
 
@@ -314,6 +350,7 @@ def track_coherence(model: str, n: np.ndarray, separation: float) -> np.ndarray:
     if model == 'independent':
         return np.zeros_like(n)
     from scipy.special import k1
+
     x = 2.0 * np.pi * n * separation
     return x * k1(x)
 
@@ -327,9 +364,17 @@ class _ISO8608Track(ISO8608Road):
 
     @property
     def _spline(self):
-        return _iso8608_spline(self.road_class.upper(), self.seed, self.n_min, self.n_max,
-                               self.length, self.fade_in, self.coherence, self.track_index,
-                               self.separation)
+        return _iso8608_spline(
+            self.road_class.upper(),
+            self.seed,
+            self.n_min,
+            self.n_max,
+            self.length,
+            self.fade_in,
+            self.coherence,
+            self.track_index,
+            self.separation,
+        )
 
 
 @dataclass(frozen=True)
@@ -353,6 +398,7 @@ class CSVRoad(RoadProfile):
         spline = self.__dict__.get('_spline_cache')
         if spline is None:
             from scipy.interpolate import CubicSpline
+
             s, h = self._data()
             spline = CubicSpline(s, h)
             object.__setattr__(self, '_spline_cache', spline)
@@ -378,7 +424,7 @@ class CSVRoad(RoadProfile):
         ds = float(np.min(np.diff(s)))
         n = min(int(np.ceil((s[-1] - s[0]) / ds)) + 1, 2**22)
         grid = np.linspace(s[0], s[-1], n)
-        power = np.abs(np.fft.rfft(self._spline(grid) - np.mean(h)))**2
+        power = np.abs(np.fft.rfft(self._spline(grid) - np.mean(h))) ** 2
         freq = np.fft.rfftfreq(n, d=(s[-1] - s[0]) / (n - 1))
         cum = np.cumsum(power[1:])
         if cum.size == 0 or cum[-1] <= 0.0:
@@ -391,19 +437,30 @@ class CSVRoad(RoadProfile):
         except ConfigError as err:
             return [f'{where}.file: {err}']
         if s[0] > 0.0 or s[-1] < required_length:
-            return [f'{where}.file: {self.file} covers s = {s[0]:g}..{s[-1]:g} m but the drive '
-                    f'needs 0..{required_length:g} m (speed × horizon)']
+            return [
+                f'{where}.file: {self.file} covers s = {s[0]:g}..{s[-1]:g} m but the drive '
+                f'needs 0..{required_length:g} m (speed × horizon)'
+            ]
         return []
 
 
 @functools.lru_cache(maxsize=8)
-def _iso8608_spline(road_class: str, seed: int, n_min: float, n_max: float, length: float,
-                    fade_in: float, coherence: str, track: int, separation: float):
+def _iso8608_spline(
+    road_class: str,
+    seed: int,
+    n_min: float,
+    n_max: float,
+    length: float,
+    fade_in: float,
+    coherence: str,
+    track: int,
+    separation: float,
+):
     """The synthesized profile of an :class:`ISO8608Road` track (a pure function of its
     parameters, memoized: every model and integrator of a study shares one synthesis)."""
     from scipy.interpolate import CubicSpline
-    road = ISO8608Road(road_class=road_class, seed=seed, n_min=n_min, n_max=n_max,
-                       length=length)
+
+    road = ISO8608Road(road_class=road_class, seed=seed, n_min=n_min, n_max=n_max, length=length)
     n, amp, phase = road.lines()
     coef = np.exp(1j * phase)
     if track:  # mix in an independent set of phases (a second stream of the same seed)
@@ -438,8 +495,11 @@ def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     path = Path(path)
     try:
         with path.open(newline='', encoding='utf-8-sig') as fh:
-            rows = [(i + 1, r) for i, r in enumerate(csv.reader(fh))
-                    if r and any(c.strip() for c in r) and not r[0].lstrip().startswith('#')]
+            rows = [
+                (i + 1, r)
+                for i, r in enumerate(csv.reader(fh))
+                if r and any(c.strip() for c in r) and not r[0].lstrip().startswith('#')
+            ]
     except OSError as err:
         raise ConfigError(f'cannot read road CSV {path}: {err.strerror}') from None
     except (UnicodeDecodeError, csv.Error):
@@ -450,8 +510,10 @@ def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         if k == 0 and all(c is None for c in cells):
             continue  # header
         if len(cells) != 2 or None in cells:
-            raise ConfigError(f'{path}: row {line} is not two numbers (distance [m], '
-                              f'height [m]): {",".join(row)!r}')
+            raise ConfigError(
+                f'{path}: row {line} is not two numbers (distance [m], '
+                f'height [m]): {",".join(row)!r}'
+            )
         data.append(cells)
     if len(data) < 4:
         raise ConfigError(f'{path}: needs at least 4 distance,height rows, found {len(data)}')
@@ -460,8 +522,9 @@ def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise ConfigError(f'{path}: contains non-finite numbers')
     if np.any(np.diff(arr[:, 0]) <= 0.0):
         i = int(np.argmax(np.diff(arr[:, 0]) <= 0.0))
-        raise ConfigError(f'{path}: distances must be strictly increasing '
-                          f'({arr[i + 1, 0]:g} after {arr[i, 0]:g})')
+        raise ConfigError(
+            f'{path}: distances must be strictly increasing ({arr[i + 1, 0]:g} after {arr[i, 0]:g})'
+        )
     return arr[:, 0], arr[:, 1]
 
 
@@ -491,8 +554,9 @@ def make_road(description: dict[str, Any]) -> RoadProfile:
 TWO_TRACKS = 'two_tracks'
 
 
-def road_tracks(description: dict[str, Any], n_tracks: int = 1,
-                separation: float = 0.0) -> tuple[RoadProfile, ...]:
+def road_tracks(
+    description: dict[str, Any], n_tracks: int = 1, separation: float = 0.0
+) -> tuple[RoadProfile, ...]:
     """The profile under each of ``n_tracks`` wheel tracks ``separation`` metres apart:
     ``two_tracks`` gives its ``left`` and ``right`` profiles; an ISO 8608 road its coherent
     right track (:meth:`ISO8608Road.track`); any other profile is the same under both."""
@@ -507,9 +571,9 @@ def road_tracks(description: dict[str, Any], n_tracks: int = 1,
     return (road,) * n_tracks
 
 
-def wheel_road_inputs(road: RoadProfile, t: ArrayLike, speed: float,
-                      offsets: tuple[float, ...], rates: bool = True
-                      ) -> tuple[np.ndarray, np.ndarray | None]:
+def wheel_road_inputs(
+    road: RoadProfile, t: ArrayLike, speed: float, offsets: tuple[float, ...], rates: bool = True
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Road heights and rates under each wheel: ``δ_i(t) = r(v t - offset_i)`` (SPEC §4).
 
     Returns arrays of shape ``(len(offsets),) + shape(t)``: heights [m] and rates [m/s]

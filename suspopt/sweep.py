@@ -45,6 +45,7 @@ suspopt.sweep`` makes a worker ignore Ctrl-C meant for the sweep (local workers 
 
 The only calls into the rest of suspopt are in :func:`suspopt_call`.
 """
+
 from __future__ import annotations
 
 import csv
@@ -68,14 +69,24 @@ import tomllib
 import traceback
 import uuid
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from suspopt.errors import ConfigError, SuspoptError
 
-SWEEP_KEYS = ('study', 'command', 'fidelity', 'mode', 'axes', 'tasks', 'multistart',
-              'retries', 'verify')
+SWEEP_KEYS = (
+    'study',
+    'command',
+    'fidelity',
+    'mode',
+    'axes',
+    'tasks',
+    'multistart',
+    'retries',
+    'verify',
+)
 COMMANDS = ('optimize', 'study')
 FIDELITIES = ('low', 'mixed')
 MODES = ('product', 'list')
@@ -105,15 +116,23 @@ def suspopt_call(action: str, **kw: Any) -> Any:
     fidelity, start / verify) → the result dictionary.
     """
     from suspopt.config import config_from_dict, load_config
+
     if action == 'load':
         return load_config(kw['path']).to_dict()
     if action == 'validate':
         return config_from_dict(kw['data'], base_dir=kw.get('base_dir')).to_dict()
     from suspopt.study import optimize, run_study
+
     config = config_from_dict(kw['data'])
     if action == 'optimize':
-        return optimize(config, kw['fidelity'], start=kw['start'], out_dir=kw['out_dir'],
-                        progress=None, verify=kw.get('verify', True))
+        return optimize(
+            config,
+            kw['fidelity'],
+            start=kw['start'],
+            out_dir=kw['out_dir'],
+            progress=None,
+            verify=kw.get('verify', True),
+        )
     if action == 'study':
         return run_study(config, kw['out_dir'], progress=None, log=None, verify=kw['verify'])
     raise ValueError(f'unknown action {action!r}')  # pragma: no cover
@@ -124,24 +143,37 @@ def suspopt_call(action: str, **kw: Any) -> Any:
 class Task:
     """One task: plain data only (what a worker gets)."""
 
-    name: str                      # unique, file-system safe, stable (label + content hash)
-    label: str                     # human readable: the swept values
-    values: dict[str, Any]         # axis (or override key) -> value, as in the sweep file
+    name: str  # unique, file-system safe, stable (label + content hash)
+    label: str  # human readable: the swept values
+    values: dict[str, Any]  # axis (or override key) -> value, as in the sweep file
     command: str
     fidelity: str | None
     start: dict[str, float] | None
-    config: dict[str, Any]         # canonical study description (absolute paths)
+    config: dict[str, Any]  # canonical study description (absolute paths)
     verify: bool = True
     start_index: int | None = None  # which of the sweep's distinct starts
 
     def payload(self, out_dir: Path, topic: str | None) -> dict[str, Any]:
-        return {'name': self.name, 'command': self.command, 'fidelity': self.fidelity,
-                'start': self.start, 'config': self.config, 'verify': self.verify,
-                'out_dir': str(out_dir / 'tasks' / self.name / 'output'), 'topic': topic}
+        return {
+            'name': self.name,
+            'command': self.command,
+            'fidelity': self.fidelity,
+            'start': self.start,
+            'config': self.config,
+            'verify': self.verify,
+            'out_dir': str(out_dir / 'tasks' / self.name / 'output'),
+            'topic': topic,
+        }
 
     def describe(self) -> dict[str, Any]:
-        return {'name': self.name, 'label': self.label, 'values': self.values,
-                'command': self.command, 'fidelity': self.fidelity, 'start': self.start}
+        return {
+            'name': self.name,
+            'label': self.label,
+            'values': self.values,
+            'command': self.command,
+            'fidelity': self.fidelity,
+            'start': self.start,
+        }
 
 
 @dataclass
@@ -149,9 +181,9 @@ class Sweep:
     """A parsed, validated sweep file."""
 
     path: Path
-    description: dict[str, Any]    # the sweep file as read, plus the base study's dict
+    description: dict[str, Any]  # the sweep file as read, plus the base study's dict
     tasks: list[Task]
-    axes: list[str]                # swept keys in order (start/fidelity included)
+    axes: list[str]  # swept keys in order (start/fidelity included)
     retries: int = 1
 
     @property
@@ -195,8 +227,9 @@ def _key_problem(key: str, tree: dict[str, Any]) -> str | None:
     for part in key.split('.'):
         if not isinstance(node, dict) or part not in node:
             where = '.'.join(done)
-            options = [f'{where}.{k}' if where else k for k in node] \
-                if isinstance(node, dict) else []
+            options = (
+                [f'{where}.{k}' if where else k for k in node] if isinstance(node, dict) else []
+            )
             near = difflib.get_close_matches(key, options + list(SPECIAL_AXES), n=1)
             hint = f" (did you mean '{near[0]}'?)" if near else ''
             return f'not a study-file key{hint}'
@@ -204,7 +237,8 @@ def _key_problem(key: str, tree: dict[str, Any]) -> str | None:
         done.append(part)
     if isinstance(node, dict):
         return 'is a table, not a value: name one of its keys ' + ', '.join(
-            f'{key}.{k}' for k in node)
+            f'{key}.{k}' for k in node
+        )
     return None
 
 
@@ -231,8 +265,9 @@ def _apply(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
 def _starts_from(spec: Any, design: dict[str, Any], errs: list[str]) -> list[dict[str, float]]:
     """Starting designs spread over the design box (``multistart`` table)."""
     if not isinstance(spec, dict):
-        errs.append(f'multistart: must be a table {{ n = 16, seed = 0, method = "lhs" }}, '
-                    f'got {spec!r}')
+        errs.append(
+            f'multistart: must be a table {{ n = 16, seed = 0, method = "lhs" }}, got {spec!r}'
+        )
         return []
     for k in spec:
         if k not in MULTISTART_KEYS:
@@ -243,12 +278,15 @@ def _starts_from(spec: Any, design: dict[str, Any], errs: list[str]) -> list[dic
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         errs.append(f'multistart.seed: must be an integer >= 0, got {seed!r}')
     if method not in MULTISTART_METHODS:
-        errs.append(f'multistart.method: must be one of {", ".join(MULTISTART_METHODS)}, '
-                    f'got {method!r}{_near(str(method), MULTISTART_METHODS)}')
+        errs.append(
+            f'multistart.method: must be one of {", ".join(MULTISTART_METHODS)}, '
+            f'got {method!r}{_near(str(method), MULTISTART_METHODS)}'
+        )
     if errs:
         return []
     import numpy as np
     from scipy.stats import qmc
+
     free = [k for k, dv in design.items() if dv['optimize']]
     if not free:
         errs.append('multistart: no design variable has optimize = true')
@@ -263,8 +301,13 @@ def _starts_from(spec: Any, design: dict[str, Any], errs: list[str]) -> list[dic
     else:
         u = np.random.default_rng(seed).random((n, d))
     x = qmc.scale(u, [design[k]['lower'] for k in free], [design[k]['upper'] for k in free])
-    return [{k: (float(row[free.index(k)]) if k in free else float(dv['initial']))
-             for k, dv in design.items()} for row in x]
+    return [
+        {
+            k: (float(row[free.index(k)]) if k in free else float(dv['initial']))
+            for k, dv in design.items()
+        }
+        for row in x
+    ]
 
 
 def _near(word: str, options) -> str:
@@ -274,8 +317,10 @@ def _near(word: str, options) -> str:
 
 def _check_start(start: Any, design: dict[str, Any], where: str, errs: list[str]) -> None:
     if not isinstance(start, dict):
-        errs.append(f'{where}: must be a table of design values '
-                    f'{{ {", ".join(f"{k} = ..." for k in design)} }}, got {start!r}')
+        errs.append(
+            f'{where}: must be a table of design values '
+            f'{{ {", ".join(f"{k} = ..." for k in design)} }}, got {start!r}'
+        )
         return
     for k, v in start.items():
         if k not in design:
@@ -283,8 +328,10 @@ def _check_start(start: Any, design: dict[str, Any], where: str, errs: list[str]
         elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             errs.append(f'{where}.{k}: must be a finite number, got {v!r}')
         elif not design[k]['lower'] <= v <= design[k]['upper']:
-            errs.append(f"{where}.{k}: {v:g} is outside the bounds "
-                        f"[{design[k]['lower']:g}, {design[k]['upper']:g}]")
+            errs.append(
+                f'{where}.{k}: {v:g} is outside the bounds '
+                f'[{design[k]["lower"]:g}, {design[k]["upper"]:g}]'
+            )
 
 
 def _label(values: dict[str, Any], start_index: int | None) -> str:
@@ -324,8 +371,10 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
     errs: list[str] = []
     for k in raw:
         if k not in SWEEP_KEYS:
-            errs.append(f'{k}: unknown key{_near(k, SWEEP_KEYS)} (a sweep file takes '
-                        f'{", ".join(SWEEP_KEYS)}; study-file keys go in [axes] or [[tasks]])')
+            errs.append(
+                f'{k}: unknown key{_near(k, SWEEP_KEYS)} (a sweep file takes '
+                f'{", ".join(SWEEP_KEYS)}; study-file keys go in [axes] or [[tasks]])'
+            )
     command = raw.get('command', 'optimize')
     if command not in COMMANDS:
         errs.append(f'command: must be one of {", ".join(COMMANDS)}, got {command!r}')
@@ -339,8 +388,9 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
         errs.append("fidelity: a study runs both fidelities; only for command = 'optimize'")
     retries = raw.get('retries', 1)
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
-        errs.append(f'retries: must be an integer >= 0 (reruns after a worker died), '
-                    f'got {retries!r}')
+        errs.append(
+            f'retries: must be an integer >= 0 (reruns after a worker died), got {retries!r}'
+        )
     verify = raw.get('verify', True)
     if not isinstance(verify, bool):
         errs.append(f'verify: must be true or false, got {verify!r}')
@@ -393,8 +443,9 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
             errs.append("axes: only with mode = 'product' (mode = 'list' takes [[tasks]])")
         listed = raw.get('tasks')
         if not isinstance(listed, list) or not listed:
-            errs.append('tasks: mode = "list" needs a non-empty list of override tables '
-                        '([[tasks]])')
+            errs.append(
+                'tasks: mode = "list" needs a non-empty list of override tables ([[tasks]])'
+            )
             listed = []
         for i, t in enumerate(listed):
             if not isinstance(t, dict):
@@ -420,9 +471,11 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
     if command == 'study':
         for k in SPECIAL_AXES:
             if k in axes:
-                errs.append(f"{'multistart' if k == 'start' and 'multistart' in raw else k}: "
-                            f"only for command = 'optimize' (a study starts from the "
-                            f"configured initial design and runs both fidelities)")
+                errs.append(
+                    f'{"multistart" if k == "start" and "multistart" in raw else k}: '
+                    f"only for command = 'optimize' (a study starts from the "
+                    f'configured initial design and runs both fidelities)'
+                )
         if errs:
             raise ConfigError(errs)
 
@@ -432,13 +485,18 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
     seen: dict[str, int] = {}
     problems: dict[str, list[str]] = {}
     for i, values in enumerate(combos):
-        where = f'tasks[{i}]' if mode == 'list' else 'task ' + ', '.join(
-            f'{k} = {_fmt(v)}' for k, v in values.items() if k != 'start')
+        where = (
+            f'tasks[{i}]'
+            if mode == 'list'
+            else 'task ' + ', '.join(f'{k} = {_fmt(v)}' for k, v in values.items() if k != 'start')
+        )
         overrides = {k: v for k, v in values.items() if k not in SPECIAL_AXES}
         fid = values.get('fidelity', fidelity)
         if 'fidelity' in values and fid not in FIDELITIES:
-            errs.append(f'{"axes." if mode == "product" else where + "."}fidelity: must be '
-                        f'one of {", ".join(FIDELITIES)}, got {fid!r}')
+            errs.append(
+                f'{"axes." if mode == "product" else where + "."}fidelity: must be '
+                f'one of {", ".join(FIDELITIES)}, got {fid!r}'
+            )
             continue
         try:
             cfg = suspopt_call('validate', data=_apply(base, overrides), base_dir=path.parent)
@@ -448,33 +506,61 @@ def _parse_sweep(raw: dict[str, Any], path: Path) -> Sweep:
             continue
         start = values.get('start')
         if start is not None:
-            _check_start(start, _variables(cfg['design']),
-                         f'{where}.start' if mode == 'list' else 'start', errs)
-            start = {**{k: dv['initial'] for k, dv in _variables(cfg['design']).items()},
-                     **{k: float(v) for k, v in start.items()}}
+            _check_start(
+                start,
+                _variables(cfg['design']),
+                f'{where}.start' if mode == 'list' else 'start',
+                errs,
+            )
+            start = {
+                **{k: dv['initial'] for k, dv in _variables(cfg['design']).items()},
+                **{k: float(v) for k, v in start.items()},
+            }
             start_ids.setdefault(json.dumps(start, sort_keys=True), len(start_ids))
-        ident = {'command': command, 'fidelity': fid if command == 'optimize' else None,
-                 'start': start, 'config': cfg, 'verify': verify}
+        ident = {
+            'command': command,
+            'fidelity': fid if command == 'optimize' else None,
+            'start': start,
+            'config': cfg,
+            'verify': verify,
+        }
         digest = _digest(ident)
         if digest in seen:
-            errs.append(f'{where}: the same task as tasks[{seen[digest]}]' if mode == 'list'
-                        else f'{where}: the same task twice')
+            errs.append(
+                f'{where}: the same task as tasks[{seen[digest]}]'
+                if mode == 'list'
+                else f'{where}: the same task twice'
+            )
             continue
         seen[digest] = i
         start_index = start_ids.get(json.dumps(start, sort_keys=True))
         label = _label(values, start_index)
-        tasks.append(Task(name=f'{_safe(label)}-{digest[:8]}', label=label, values=values,
-                          command=command, fidelity=ident['fidelity'], start=start,
-                          config=cfg, verify=verify, start_index=start_index))
+        tasks.append(
+            Task(
+                name=f'{_safe(label)}-{digest[:8]}',
+                label=label,
+                values=values,
+                command=command,
+                fidelity=ident['fidelity'],
+                start=start,
+                config=cfg,
+                verify=verify,
+                start_index=start_index,
+            )
+        )
     for p, wheres in problems.items():
-        errs.append(f'{p} (in {wheres[0]}' + (f' and {len(wheres) - 1} more task(s))'
-                                              if len(wheres) > 1 else ')'))
+        errs.append(
+            f'{p} (in {wheres[0]}'
+            + (f' and {len(wheres) - 1} more task(s))' if len(wheres) > 1 else ')')
+        )
     if errs:
         raise ConfigError(errs)
-    description = {'sweep': raw, 'base_study': None if base_file is None else str(base_file),
-                   'base_config': base}
-    return Sweep(path=path, description=description, tasks=tasks, axes=axes,
-                 retries=retries)
+    description = {
+        'sweep': raw,
+        'base_study': None if base_file is None else str(base_file),
+        'base_config': base,
+    }
+    return Sweep(path=path, description=description, tasks=tasks, axes=axes, retries=retries)
 
 
 # ================================================================ the task (on a worker)
@@ -482,30 +568,42 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
     """Run one task from its plain description; never raises for a failed task: the
     failure (one line and its traceback) is the record returned."""
     t0, cpu0 = time.time(), time.process_time()
-    worker = _announce(payload.get('topic'), {'op': 'start', 'task': payload['name'],
-                                               'pid': os.getpid(), 'time': t0})
+    worker = _announce(
+        payload.get('topic'),
+        {'op': 'start', 'task': payload['name'], 'pid': os.getpid(), 'time': t0},
+    )
     _quiet_libraries()
     out = Path(payload['out_dir'])
-    rec: dict[str, Any] = {'name': payload['name'], 'worker': worker, 'pid': os.getpid(),
-                           'host': socket.gethostname(), 'started': t0}
+    rec: dict[str, Any] = {
+        'name': payload['name'],
+        'worker': worker,
+        'pid': os.getpid(),
+        'host': socket.gethostname(),
+        'started': t0,
+    }
     try:
         shutil.rmtree(out, ignore_errors=True)  # a rerun starts clean
         out.mkdir(parents=True, exist_ok=True)
         if payload['command'] == 'optimize':
-            res = suspopt_call('optimize', data=payload['config'], out_dir=out,
-                               fidelity=payload['fidelity'], start=payload['start'],
-                               verify=payload['verify'])
+            res = suspopt_call(
+                'optimize',
+                data=payload['config'],
+                out_dir=out,
+                fidelity=payload['fidelity'],
+                start=payload['start'],
+                verify=payload['verify'],
+            )
         else:
-            res = suspopt_call('study', data=payload['config'], out_dir=out,
-                               verify=payload['verify'])
+            res = suspopt_call(
+                'study', data=payload['config'], out_dir=out, verify=payload['verify']
+            )
         rec['result'] = res
         final = final_step(payload['command'], res)
         if final.get('success'):
             rec['state'], rec['error'] = 'done', None
         else:
             rec['state'] = 'failed'
-            rec['error'] = (f"IPOPT {final.get('status')} after {final.get('iterations')} "
-                            'iterations')
+            rec['error'] = f'IPOPT {final.get("status")} after {final.get("iterations")} iterations'
     except Exception as err:  # noqa: BLE001 - a failed task is a result, not a crash
         rec['state'] = 'failed'
         first = (str(err).strip().splitlines() or [''])[0]
@@ -520,6 +618,7 @@ def run_task(payload: dict[str, Any]) -> dict[str, Any]:
 def _quiet_libraries() -> None:
     """OpenMDAO/Dymos warnings about their own internals are noise in a worker's log."""
     import warnings
+
     for module in ('openmdao', 'dymos'):
         warnings.filterwarnings('ignore', module=module)
     warnings.filterwarnings('ignore', category=DeprecationWarning)
@@ -528,11 +627,21 @@ def _quiet_libraries() -> None:
 def noop_task(payload: dict[str, Any]) -> dict[str, Any]:
     """A task that does nothing (measures the engine's own cost per task)."""
     t0 = time.time()
-    worker = _announce(payload.get('topic'), {'op': 'start', 'task': payload['name'],
-                                               'pid': os.getpid(), 'time': t0})
-    return {'name': payload['name'], 'worker': worker, 'pid': os.getpid(), 'started': t0,
-            'finished': time.time(), 'wall_time_s': time.time() - t0, 'state': 'done',
-            'error': None, 'result': {'objective': 0.0, 'success': True}}
+    worker = _announce(
+        payload.get('topic'),
+        {'op': 'start', 'task': payload['name'], 'pid': os.getpid(), 'time': t0},
+    )
+    return {
+        'name': payload['name'],
+        'worker': worker,
+        'pid': os.getpid(),
+        'started': t0,
+        'finished': time.time(),
+        'wall_time_s': time.time() - t0,
+        'state': 'done',
+        'error': None,
+        'result': {'objective': 0.0, 'success': True},
+    }
 
 
 def _plain(obj: Any) -> Any:
@@ -545,6 +654,7 @@ def _announce(topic: str | None, msg: dict[str, Any]) -> str | None:
     """Tell the sweep's client this task started (a Dask event); outside a worker: None."""
     try:
         from distributed import get_worker
+
         w = get_worker()
     except (ImportError, ValueError):
         return None
@@ -576,6 +686,7 @@ def dask_setup(worker: Any) -> None:
     except ValueError:  # not the main thread: nothing to do
         pass
     from threadpoolctl import threadpool_limits
+
     threadpool_limits(limits=1)
     import suspopt.study  # noqa: F401
 
@@ -584,6 +695,7 @@ def dask_setup(worker: Any) -> None:
 def atomic_write(path: Path, text: str) -> None:
     """Write a text file atomically (:func:`suspopt.results.atomic_path`)."""
     from suspopt.results import atomic_path
+
     with atomic_path(path) as tmp, open(tmp, 'w', newline='') as fh:
         fh.write(text)
 
@@ -600,7 +712,7 @@ class DirectoryLock:
         self.path = directory / '.lock'
         self.fh = None
 
-    def __enter__(self) -> 'DirectoryLock':
+    def __enter__(self) -> DirectoryLock:
         self.fh = open(self.path, 'a+')
         try:
             fcntl.flock(self.fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -608,8 +720,10 @@ class DirectoryLock:
             self.fh.seek(0)
             holder = self.fh.read().strip() or 'another process'
             self.fh.close()
-            raise ConfigError(f'--out {self.path.parent}: another sweep is running in this '
-                              f'directory ({holder}); wait for it or choose another --out')
+            raise ConfigError(
+                f'--out {self.path.parent}: another sweep is running in this '
+                f'directory ({holder}); wait for it or choose another --out'
+            )
         self.fh.seek(0)
         self.fh.truncate()
         self.fh.write(f'pid {os.getpid()} on {socket.gethostname()}\n')
@@ -640,25 +754,27 @@ def _changes(old: Any, new: Any, key: str = '') -> list[str]:
 
 def _short(v: Any, n: int = 60) -> str:
     s = _fmt(v)
-    return s if len(s) <= n else s[:n - 3] + '...'
+    return s if len(s) <= n else s[: n - 3] + '...'
 
 
-def _reconcile(sweep: Sweep, out: Path,
-               say: Callable[[str], None]) -> dict[str, dict[str, Any]]:
+def _reconcile(sweep: Sweep, out: Path, say: Callable[[str], None]) -> dict[str, dict[str, Any]]:
     """Check ``out`` against ``sweep`` (new, same, or extended sweep) and return the
     records of the tasks already finished there, by task name."""
     meta = out / 'sweep.json'
     if not meta.exists():
         others = [p.name for p in out.iterdir() if p.name != '.lock']
         if others:
-            raise ConfigError(f'--out {out}: not empty and not a sweep directory (no '
-                              f'sweep.json); choose another directory')
+            raise ConfigError(
+                f'--out {out}: not empty and not a sweep directory (no '
+                f'sweep.json); choose another directory'
+            )
         return {}
     try:
         old = json.loads(meta.read_text())
     except (OSError, json.JSONDecodeError) as err:
-        raise ConfigError(f'--out {out}: unreadable sweep.json ({err}); choose another '
-                          'directory') from None
+        raise ConfigError(
+            f'--out {out}: unreadable sweep.json ({err}); choose another directory'
+        ) from None
     new_names = {t.name for t in sweep.tasks}
     old_names = [t['name'] for t in old.get('tasks', [])]
     if old.get('hash') != sweep.hash:
@@ -670,11 +786,14 @@ def _reconcile(sweep: Sweep, out: Path,
                 f'({"; ".join(what[:6]) or "task list"}{"; ..." if len(what) > 6 else ""}) '
                 f'and {len(missing)} of its {len(old_names)} task(s) are not in the new '
                 f'sweep (e.g. {missing[0]}). Restore the sweep file, or use a new --out '
-                '(only adding tasks is accepted)')
+                '(only adding tasks is accepted)'
+            )
         gained = len(new_names) - len(old_names)
-        say(f'the sweep file changed ({"; ".join(what[:3])}): '
+        say(
+            f'the sweep file changed ({"; ".join(what[:3])}): '
             + (f'{gained} new task(s); ' if gained else 'the same tasks; ')
-            + f'the {len(old_names)} earlier task(s) are kept')
+            + f'the {len(old_names)} earlier task(s) are kept'
+        )
     done = {}
     for name in old_names:
         if name in new_names:
@@ -732,8 +851,9 @@ def _columns(rows: list[dict[str, Any]], axes: list[str]) -> list[str]:
     return cols
 
 
-def write_summary(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]],
-                  running: set[str] = frozenset()) -> None:
+def write_summary(
+    out: Path, sweep: Sweep, records: dict[str, dict[str, Any]], running: set[str] = frozenset()
+) -> None:
     """Rewrite summary.csv, table.md and sweep.json (atomically)."""
     rows = _rows(sweep, records)
     for r in rows:
@@ -747,12 +867,20 @@ def write_summary(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]],
         w.writerow({k: ('' if r.get(k) is None else r.get(k)) for k in cols})
     atomic_write(out / 'summary.csv', buf.getvalue())
     atomic_write(out / 'table.md', _table_md(sweep, rows, cols))
-    _write_json(out / 'sweep.json', {
-        'sweep_file': str(sweep.path.resolve()), 'hash': sweep.hash,
-        'description': sweep.description, 'axes': sweep.axes,
-        'counts': _counts(rows),
-        'tasks': [{**t.describe(), 'state': r['state'], 'error': r['error']}
-                  for t, r in zip(sweep.tasks, rows)]})
+    _write_json(
+        out / 'sweep.json',
+        {
+            'sweep_file': str(sweep.path.resolve()),
+            'hash': sweep.hash,
+            'description': sweep.description,
+            'axes': sweep.axes,
+            'counts': _counts(rows),
+            'tasks': [
+                {**t.describe(), 'state': r['state'], 'error': r['error']}
+                for t, r in zip(sweep.tasks, rows)
+            ],
+        },
+    )
 
 
 def _counts(rows: list[dict[str, Any]]) -> dict[str, int]:
@@ -770,16 +898,23 @@ def _cell(v: Any) -> str:
 def _table_md(sweep: Sweep, rows: list[dict[str, Any]], cols: list[str]) -> str:
     c = _counts(rows)
     show = [k for k in cols if k not in ('task',) and not re.fullmatch(r'J\d', k)]
-    lines = [f'Sweep {sweep.path.name}: {c["total"]} tasks, {c["done"]} done, '
-             f'{c["failed"]} failed, {c["running"]} running, {c["pending"]} pending.', '',
-             '| ' + ' | '.join(show) + ' |', '|' + '---|' * len(show)]
+    lines = [
+        f'Sweep {sweep.path.name}: {c["total"]} tasks, {c["done"]} done, '
+        f'{c["failed"]} failed, {c["running"]} running, {c["pending"]} pending.',
+        '',
+        '| ' + ' | '.join(show) + ' |',
+        '|' + '---|' * len(show),
+    ]
     lines += ['| ' + ' | '.join(_cell(r.get(k)) for k in show) + ' |' for r in rows]
     return '\n'.join(lines) + '\n'
 
 
 # ---------------------------------------------------------------- figures
-def distinct_optima(designs: list[dict[str, float]], bounds: dict[str, tuple[float, float]],
-                    tol: float = DISTINCT_TOL) -> list[int]:
+def distinct_optima(
+    designs: list[dict[str, float]],
+    bounds: dict[str, tuple[float, float]],
+    tol: float = DISTINCT_TOL,
+) -> list[int]:
     """A cluster index per design: designs closer than ``tol`` of each variable's range
     (in every variable) are one optimum."""
     reps: list[dict[str, float]] = []
@@ -799,10 +934,12 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
     """One figure per swept axis (objective against its values); for a start axis, the
     optima found and how many distinct ones."""
     import matplotlib
+
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
     from suspopt.figures import save_figure
+
     rows = [(t, summary_row(t, records.get(t.name))) for t in sweep.tasks]
     rows = [(t, r) for t, r in rows if r['state'] == 'done' and r['objective'] is not None]
     written = []
@@ -813,8 +950,9 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
         groups: dict[str, list[tuple[Any, dict[str, Any]]]] = {}
         for t, r in rows:
             if axis in t.values:
-                g = ', '.join(f'{a.rsplit(".", 1)[-1]}={_fmt(t.values[a])}' for a in others
-                              if a in t.values)
+                g = ', '.join(
+                    f'{a.rsplit(".", 1)[-1]}={_fmt(t.values[a])}' for a in others if a in t.values
+                )
                 groups.setdefault(g, []).append((t.values[axis], r))
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
         if axis == 'start':
@@ -841,8 +979,11 @@ def _readable_y(ax, values: list[float]) -> None:
 
 
 def _plot_axis(ax, axis: str, groups) -> str:
-    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                  for pts in groups.values() for v, _ in pts)
+    numeric = all(
+        isinstance(v, (int, float)) and not isinstance(v, bool)
+        for pts in groups.values()
+        for v, _ in pts
+    )
     cats: list[str] = []
     for g, pts in groups.items():
         if numeric:
@@ -851,12 +992,12 @@ def _plot_axis(ax, axis: str, groups) -> str:
         else:
             cats += [_fmt(v) for v, _ in pts if _fmt(v) not in cats]
             xs = [cats.index(_fmt(v)) for v, _ in pts]
-        ax.plot(xs, [r['objective'] for _, r in pts], 'o-' if numeric else 'o',
-                label=g or None)
+        ax.plot(xs, [r['objective'] for _, r in pts], 'o-' if numeric else 'o', label=g or None)
     if not numeric:
         ax.set_xticks(range(len(cats)), cats, rotation=20, fontsize=8)
     elif all(isinstance(v, int) for pts in groups.values() for v, _ in pts):
         from matplotlib.ticker import MaxNLocator
+
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel(axis)
     ax.set_ylabel('objective f')
@@ -866,20 +1007,34 @@ def _plot_axis(ax, axis: str, groups) -> str:
 
 
 def _plot_multistart(ax, groups, sweep: Sweep) -> str:
-    bounds = {k: (dv['lower'], dv['upper'])
-              for k, dv in _variables(sweep.description['base_config']['design']).items()}
+    bounds = {
+        k: (dv['lower'], dv['upper'])
+        for k, dv in _variables(sweep.description['base_config']['design']).items()
+    }
     parts = []
     for g, pts in groups.items():
-        pts = sorted((p for p in pts if all(p[1].get(k) is not None for k in bounds)),
-                     key=lambda p: p[1]['objective'])
+        pts = sorted(
+            (p for p in pts if all(p[1].get(k) is not None for k in bounds)),
+            key=lambda p: p[1]['objective'],
+        )
         if not pts:
             continue
         cl = distinct_optima([{k: r[k] for k in bounds} for _, r in pts], bounds)
         n = max(cl) + 1
-        parts.append(f'{g + ": " if g else ""}{n} distinct optim{"um" if n == 1 else "a"} '
-                     f'from {len(pts)} starts')
-        ax.scatter(range(len(pts)), [r['objective'] for _, r in pts], c=cl, cmap='tab10',
-                   vmin=0, vmax=9, s=28, label=g or None)
+        parts.append(
+            f'{g + ": " if g else ""}{n} distinct optim{"um" if n == 1 else "a"} '
+            f'from {len(pts)} starts'
+        )
+        ax.scatter(
+            range(len(pts)),
+            [r['objective'] for _, r in pts],
+            c=cl,
+            cmap='tab10',
+            vmin=0,
+            vmax=9,
+            s=28,
+            label=g or None,
+        )
     ax.set_xlabel('start (sorted by the objective of its optimum; colour: distinct optimum)')
     ax.set_ylabel('objective f of the optimum found')
     if 1 < len(groups) <= 10:
@@ -917,11 +1072,17 @@ def _eta(started: float, finished_now: int, remaining: int) -> str:
     return f'ETA {s:.0f} s' if s < 120 else f'ETA {s / 60:.1f} min'
 
 
-def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | None = None,
-              scheduler: str | None = None, retry_failed: bool = False,
-              log: Callable[[str], None] | None = None,
-              task_fn: Callable[[dict], dict] = run_task,
-              worker_start: str = 'auto') -> Outcome:
+def run_sweep(
+    sweep_file: str | Path,
+    out_dir: str | Path,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    log: Callable[[str], None] | None = None,
+    task_fn: Callable[[dict], dict] = run_task,
+    worker_start: str = 'auto',
+) -> Outcome:
     """Run (or resume) a sweep into ``out_dir``. Raises :class:`ConfigError` for bad input
     (before anything runs); returns the :class:`Outcome` otherwise. ``worker_start``: how
     a local cluster starts its workers: ``fork`` (from this process, suspopt imported),
@@ -933,13 +1094,13 @@ def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | Non
     if workers is not None and scheduler:
         raise ConfigError('--workers: not with --scheduler (the cluster has its workers)')
     if worker_start not in ('auto', 'fork', 'spawn'):
-        raise ConfigError(f"worker_start: expected 'auto', 'fork' or 'spawn', got "
-                          f'{worker_start!r}')
+        raise ConfigError(f"worker_start: expected 'auto', 'fork' or 'spawn', got {worker_start!r}")
     if worker_start == 'auto':
         worker_start = 'fork' if sys.platform.startswith('linux') else 'spawn'
     if scheduler is not None and not re.match(r'^[a-z+]+://\S+$', scheduler):
-        raise ConfigError(f'--scheduler: expected an address like tcp://HOST:PORT, '
-                          f'got {scheduler!r}')
+        raise ConfigError(
+            f'--scheduler: expected an address like tcp://HOST:PORT, got {scheduler!r}'
+        )
     sweep = load_sweep(sweep_file)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -951,15 +1112,27 @@ def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | Non
             records = {k: r for k, r in records.items() if r.get('state') == 'done'}
         todo = [t for t in sweep.tasks if t.name not in records]
         skipped = len(records)
-        say(f'{len(sweep.tasks)} task(s) ({sweep.tasks[0].command}); '
+        say(
+            f'{len(sweep.tasks)} task(s) ({sweep.tasks[0].command}); '
             + (f'{skipped} finished earlier, kept; ' if skipped else '')
-            + f'{len(todo)} to run; results in {out}')
+            + f'{len(todo)} to run; results in {out}'
+        )
         write_summary(out, sweep, records)
         outcome = Outcome(counts={}, exit_code=0, wall_time_s=0.0)
         if todo:
             try:
-                _run_on_dask(sweep, todo, out, records, outcome, workers, scheduler,
-                             say, task_fn, worker_start)
+                _run_on_dask(
+                    sweep,
+                    todo,
+                    out,
+                    records,
+                    outcome,
+                    workers,
+                    scheduler,
+                    say,
+                    task_fn,
+                    worker_start,
+                )
             finally:
                 write_summary(out, sweep, records)
                 _figures(out, sweep, records, say)
@@ -971,17 +1144,20 @@ def run_sweep(sweep_file: str | Path, out_dir: str | Path, *, workers: int | Non
         if outcome.exit_code != 130:
             unfinished = outcome.counts['pending'] + outcome.counts['running']
             unverified = [r for r in rows if r['state'] == 'done' and r.get('verified') is False]
-            outcome.exit_code = 1 if outcome.counts['failed'] or unfinished else \
-                3 if unverified else 0
+            outcome.exit_code = (
+                1 if outcome.counts['failed'] or unfinished else 3 if unverified else 0
+            )
         c = outcome.counts
-        say(f"{'interrupted' if outcome.exit_code == 130 else 'finished'}: {c['done']} done, "
-            f"{c['failed']} failed, {c['pending'] + c['running']} not run, of {c['total']} "
-            f'({outcome.wall_time_s:.1f} s); {out}/summary.csv, {out}/table.md')
+        say(
+            f'{"interrupted" if outcome.exit_code == 130 else "finished"}: {c["done"]} done, '
+            f'{c["failed"]} failed, {c["pending"] + c["running"]} not run, of {c["total"]} '
+            f'({outcome.wall_time_s:.1f} s); {out}/summary.csv, {out}/table.md'
+        )
         for r in rows:
             if r['state'] == 'failed':
-                say(f"  failed: {r['task']}: {r['error']}")
+                say(f'  failed: {r["task"]}: {r["error"]}')
             elif r['state'] == 'done' and r.get('verified') is False:
-                say(f"  NOT verified by time marching: {r['task']}")
+                say(f'  NOT verified by time marching: {r["task"]}')
         return outcome
 
 
@@ -993,13 +1169,20 @@ def _figures(out: Path, sweep: Sweep, records: dict[str, dict], say) -> None:
         say(f'figures not written: {type(err).__name__}: {err}')
 
 
-def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, retries: int,
-                   say: Callable[[str], None], worker_start: str):
+def _start_cluster(
+    workers: int | None,
+    scheduler: str | None,
+    n_tasks: int,
+    retries: int,
+    say: Callable[[str], None],
+    worker_start: str,
+):
     """A Dask client (and the LocalCluster it owns, or None for an external scheduler)."""
     import logging
 
     import dask
     from distributed import Client, LocalCluster
+
     if scheduler:
         try:
             client = Client(scheduler, timeout='10s')
@@ -1007,8 +1190,10 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
             raise SuspoptError(f'--scheduler {scheduler}: cannot connect ({err})') from None
         allowed = client.run_on_scheduler(_allowed_failures)
         n = len(client.scheduler_info()['workers'])
-        say(f'connected to {scheduler}: {n} worker(s); a task whose worker dies is rerun '
-            f'up to {allowed} time(s) (that scheduler\'s allowed-failures)')
+        say(
+            f'connected to {scheduler}: {n} worker(s); a task whose worker dies is rerun '
+            f"up to {allowed} time(s) (that scheduler's allowed-failures)"
+        )
         return client, None
     n = workers or len(os.sched_getaffinity(0))
     n = max(1, min(n, n_tasks))
@@ -1020,23 +1205,33 @@ def _start_cluster(workers: int | None, scheduler: str | None, n_tasks: int, ret
     # the client's process too, beside the workers, on a core they need: once a second and
     # every 5 s. Forked workers start from this process, which has imported what a task
     # needs (the imports are most of a spawned worker's start).
-    environ = {k: v for k, v in dask.config.get('distributed.nanny.pre-spawn-environ').items()
-               if k != 'MALLOC_TRIM_THRESHOLD_'}
-    settings = {'distributed.scheduler.allowed-failures': retries,
-                'distributed.worker.profile.enabled': False,
-                'distributed.nanny.pre-spawn-environ': environ,
-                'distributed.admin.tick.interval': '1s',
-                'distributed.admin.system-monitor.interval': '5s'}
+    environ = {
+        k: v
+        for k, v in dask.config.get('distributed.nanny.pre-spawn-environ').items()
+        if k != 'MALLOC_TRIM_THRESHOLD_'
+    }
+    settings = {
+        'distributed.scheduler.allowed-failures': retries,
+        'distributed.worker.profile.enabled': False,
+        'distributed.nanny.pre-spawn-environ': environ,
+        'distributed.admin.tick.interval': '1s',
+        'distributed.admin.system-monitor.interval': '5s',
+    }
     if worker_start == 'fork':
         import suspopt.study  # noqa: F401  (inherited by the forked workers)
     settings['distributed.worker.multiprocessing-method'] = worker_start
     with dask.config.set(settings):
         if worker_start == 'fork':  # the children's garbage collector leaves what this
-            gc.freeze()             # process had alone (no copy-on-write of its pages)
+            gc.freeze()  # process had alone (no copy-on-write of its pages)
         try:
-            cluster = LocalCluster(n_workers=n, processes=True, threads_per_worker=1,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL,
-                                   preload=['suspopt.sweep'])
+            cluster = LocalCluster(
+                n_workers=n,
+                processes=True,
+                threads_per_worker=1,
+                dashboard_address=None,
+                silence_logs=logging.CRITICAL,
+                preload=['suspopt.sweep'],
+            )
         except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
             raise SuspoptError(f'cannot start a local Dask cluster: {err}') from None
         finally:
@@ -1051,15 +1246,24 @@ def _allowed_failures(dask_scheduler) -> int:
     return dask_scheduler.allowed_failures
 
 
-def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, dict],
-                 outcome: Outcome, workers: int | None, scheduler: str | None,
-                 say: Callable[[str], None], task_fn: Callable[[dict], dict],
-                 worker_start: str) -> None:
+def _run_on_dask(
+    sweep: Sweep,
+    todo: list[Task],
+    out: Path,
+    records: dict[str, dict],
+    outcome: Outcome,
+    workers: int | None,
+    scheduler: str | None,
+    say: Callable[[str], None],
+    task_fn: Callable[[dict], dict],
+    worker_start: str,
+) -> None:
     from distributed import KilledWorker
+
     by_name = {t.name: t for t in todo}
     events: queue.Queue = queue.Queue()
     client = cluster = None
-    in_flight: dict[str, Any] = {}   # task name -> future
+    in_flight: dict[str, Any] = {}  # task name -> future
     attempts: dict[str, int] = {}
     running: set[str] = set()
     pending = deque(todo)
@@ -1073,9 +1277,11 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
 
     def progress() -> None:
         c = _counts(_rows(sweep, records))
-        line = (f"done {c['done']}, running {len(running)}, failed {c['failed']}, "
-                f"total {total}; {time.perf_counter() - t_run:.1f} s, "
-                f"{_eta(t_run, outcome.ran, len(pending) + len(in_flight))}")
+        line = (
+            f'done {c["done"]}, running {len(running)}, failed {c["failed"]}, '
+            f'total {total}; {time.perf_counter() - t_run:.1f} s, '
+            f'{_eta(t_run, outcome.ran, len(pending) + len(in_flight))}'
+        )
         if line.split(';')[0] != last_line[0]:
             say(line)
             last_line[0] = line.split(';')[0]
@@ -1083,8 +1289,9 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
     t_run = time.perf_counter()
     try:
         t_cl = time.perf_counter()
-        client, cluster = _start_cluster(workers, scheduler, len(todo), sweep.retries, say,
-                                         worker_start)
+        client, cluster = _start_cluster(
+            workers, scheduler, len(todo), sweep.retries, say, worker_start
+        )
         outcome.timings['cluster_start_s'] = time.perf_counter() - t_cl
         client.subscribe_topic(topic, lambda ev: events.put(('event', ev[1])))
         t_run = time.perf_counter()
@@ -1093,8 +1300,9 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
             slots = max(1, sum(client.nthreads().values())) - len(in_flight)
             while pending and slots > 0:
                 t = pending.popleft()
-                fut = client.submit(task_fn, t.payload(out, topic), key=f'{t.name}-{token}',
-                                    pure=False, retries=0)
+                fut = client.submit(
+                    task_fn, t.payload(out, topic), key=f'{t.name}-{token}', pure=False, retries=0
+                )
                 fut.add_done_callback(lambda f, n=t.name: events.put(('done', (n, f))))
                 in_flight[t.name] = fut
                 slots -= 1
@@ -1108,13 +1316,16 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
                 continue
             if kind == 'event' and msg.get('op') == 'start' and msg['task'] in in_flight:
                 name = msg['task']
-                attempts[name] = max(attempts.get(name, 0) + 1,
-                                     _deaths(client, in_flight[name].key) + 1)
+                attempts[name] = max(
+                    attempts.get(name, 0) + 1, _deaths(client, in_flight[name].key) + 1
+                )
                 running.add(name)
                 if attempts[name] > 1:
                     outcome.retried.append(name)
-                    say(f'{name}: its worker process died; rerun on {msg["worker"]} '
-                        f'(attempt {attempts[name]})')
+                    say(
+                        f'{name}: its worker process died; rerun on {msg["worker"]} '
+                        f'(attempt {attempts[name]})'
+                    )
                 progress()
             elif kind == 'done':
                 name, fut = msg
@@ -1146,8 +1357,10 @@ def _run_on_dask(sweep: Sweep, todo: list[Task], out: Path, records: dict[str, d
         outcome.exit_code = 130
         say('interrupted: cancelling pending tasks; finished ones are kept')
     except (OSError, TimeoutError) as err:  # CommClosedError is an OSError
-        raise SuspoptError(f'lost the Dask cluster ({type(err).__name__}: {err}); finished '
-                           'tasks are kept, rerun to resume') from None
+        raise SuspoptError(
+            f'lost the Dask cluster ({type(err).__name__}: {err}); finished '
+            'tasks are kept, rerun to resume'
+        ) from None
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
@@ -1161,8 +1374,11 @@ def _deaths(client, key: str) -> int:
     count; 0 if the scheduler does not know the task). A lambda, so that an external
     scheduler needs no suspopt to run it."""
     try:
-        return int(client.run_on_scheduler(
-            lambda dask_scheduler, k=key: getattr(dask_scheduler.tasks.get(k), 'suspicious', 0)))
+        return int(
+            client.run_on_scheduler(
+                lambda dask_scheduler, k=key: getattr(dask_scheduler.tasks.get(k), 'suspicious', 0)
+            )
+        )
     except Exception:  # noqa: BLE001 - the count is a detail of the record, never fatal
         return 0
 
@@ -1179,12 +1395,19 @@ def _collect(fut, task: Task, killed_type) -> dict[str, Any] | None:
         return None
     tb = ''.join(traceback.format_tb(fut.traceback())) if fut.traceback() else ''
     if isinstance(exc, killed_type):
-        error = (f'KilledWorker: its worker process died on each of '
-                 f'{exc.allowed_failures + 1} attempts (last on {exc.last_worker.address})')
+        error = (
+            f'KilledWorker: its worker process died on each of '
+            f'{exc.allowed_failures + 1} attempts (last on {exc.last_worker.address})'
+        )
     else:
         error = f'{type(exc).__name__}: {(str(exc).splitlines() or [""])[0]}'
-    return {'name': task.name, 'state': 'failed', 'error': error, 'traceback': tb,
-            'finished': time.time()}
+    return {
+        'name': task.name,
+        'state': 'failed',
+        'error': error,
+        'traceback': tb,
+        'finished': time.time(),
+    }
 
 
 def _shutdown(client, cluster, futures) -> None:
@@ -1216,4 +1439,5 @@ class _quiet:
 
 def _main_thread() -> bool:
     import threading
+
     return threading.current_thread() is threading.main_thread()

@@ -12,6 +12,7 @@ partitioning): at every right-hand-side evaluation the dependent coordinates are
 by Newton's method from the wheel travel, then the augmented system gives the
 accelerations. The largest constraint residual seen is reported.
 """
+
 from __future__ import annotations
 
 import time
@@ -36,8 +37,14 @@ class VehicleRHS:
     State vector: the chassis states (``z_C, v_C, theta_C, omega_C`` [, ``phi_C, p_C``]),
     every wheel's travel ``z_W`` then its rate ``v_W``, then the objective integrals."""
 
-    def __init__(self, config: StudyConfig, fidelity: str, design: dict[str, float],
-                 scenario: Scenario, modules: dict | None = None):
+    def __init__(
+        self,
+        config: StudyConfig,
+        fidelity: str,
+        design: dict[str, float],
+        scenario: Scenario,
+        modules: dict | None = None,
+    ):
         if fidelity not in ('low', 'mixed'):
             raise ValueError(f"fidelity must be 'low' or 'mixed', got {fidelity!r}")
         v = config.vehicle
@@ -50,8 +57,10 @@ class VehicleRHS:
         self.tracks = road_tracks(scenario.road, lay.n_tracks, lay.track_separation())
         self.offsets = np.array(lay.offsets())
         self.track_of = [c.track for c in lay.corners]
-        self._track_cols = [(road, np.array([c for c, tr in enumerate(self.track_of) if tr == k]))
-                            for k, road in enumerate(self.tracks)]
+        self._track_cols = [
+            (road, np.array([c for c, tr in enumerate(self.track_of) if tr == k]))
+            for k, road in enumerate(self.tracks)
+        ]
         self.M, self.I, self.I_x = v.chassis_mass, v.chassis_pitch_inertia, v.chassis_roll_inertia
         axles = v.axles
         self.m = np.array([axles[c.axle].wheel_mass for c in lay.corners])
@@ -114,8 +123,9 @@ class VehicleRHS:
                 guess = q + qd * step[:, None]
             kin = mod.kinematics(z, v, guess, pose=pose)
             self._guess[g] = (kin.state.q, kin.state.qd, z, v)
-            self.max_constraint_residual = max(self.max_constraint_residual,
-                                               mod.constraint_residual(kin.state, kin.pose))
+            self.max_constraint_residual = max(
+                self.max_constraint_residual, mod.constraint_residual(kin.state, kin.pose)
+            )
             out[g] = kin
         return out
 
@@ -125,15 +135,16 @@ class VehicleRHS:
         ch = y[:nch]
         z_C, v_C, th, om_ = ch[0], ch[1], ch[2], ch[3]
         phi, p = (ch[4], ch[5]) if self.roll else (0.0, 0.0)
-        z_W, v_W = y[nch:nch + nc].T, y[nch + nc:nch + 2 * nc].T
+        z_W, v_W = y[nch : nch + nc].T, y[nch + nc : nch + 2 * nc].T
         delta = self.road(np.atleast_1d(t))
         z_M = eq.mount_motion(z_C, th, phi, self.a, self.y)
         v_M = eq.mount_motion(v_C, om_, p, self.a, self.y)
         out = {'delta': delta, 'z_M': z_M}
         if self.fidelity == 'low':
             F_S = eq.suspension_force(self.k_S, self.c_S, z_W, v_W, z_M, v_M)
-            F_R = eq.anti_roll_force(self.k_R, z_W, z_M, self.bar_track, self.bar_left,
-                                     self.bar_right)
+            F_R = eq.anti_roll_force(
+                self.k_R, z_W, z_M, self.bar_track, self.bar_left, self.bar_right
+            )
             F_T = eq.tyre_force(self.k_T, delta, z_W)
             F = F_S + F_R
             zdd_W = eq.wheel_acceleration(F_T, F, self.m)
@@ -142,23 +153,32 @@ class VehicleRHS:
             poses = None
             if self.mount == 'chassis':
                 side = self.side
-                poses = (z_M, v_M, eq.mount_rotation(np.broadcast_to(phi, (N,)), side),
-                         eq.mount_rotation(np.broadcast_to(p, (N,)), side))
+                poses = (
+                    z_M,
+                    v_M,
+                    eq.mount_rotation(np.broadcast_to(phi, (N,)), side),
+                    eq.mount_rotation(np.broadcast_to(p, (N,)), side),
+                )
             kin = self._kinematics(z_W, v_W, poses)
             wheel = np.empty((N, nc))
             for g, (_, cols) in enumerate(self.groups):
                 wheel[:, cols] = kin[g].q_W.reshape(N, len(cols))
-            F_R = eq.anti_roll_force(self.k_R, wheel, z_M, self.bar_track, self.bar_left,
-                                     self.bar_right)
+            F_R = eq.anti_roll_force(
+                self.k_R, wheel, z_M, self.bar_track, self.bar_left, self.bar_right
+            )
             F_T = eq.tyre_force(self.k_T, delta, wheel)
             F_S, zdd_W = np.empty((N, nc)), np.empty((N, nc))
             if self.mount == 'chassis':
                 return self._chassis_mounted(out, kin, wheel, F_T, F_R)
             for g, (mod, cols) in enumerate(self.groups):
                 acc, force, _ = mod.dynamics(
-                    kin[g].state, z_M[:, cols].ravel(), v_M[:, cols].ravel(),
-                    np.tile(self.k_S[cols], N), np.tile(self.c_S[cols], N),
-                    (F_T - F_R)[:, cols].ravel())
+                    kin[g].state,
+                    z_M[:, cols].ravel(),
+                    v_M[:, cols].ravel(),
+                    np.tile(self.k_S[cols], N),
+                    np.tile(self.c_S[cols], N),
+                    (F_T - F_R)[:, cols].ravel(),
+                )
                 zdd_W[:, cols] = acc.reshape(N, len(cols))
                 F_S[:, cols] = force.reshape(N, len(cols))
             F = F_S + F_R
@@ -181,16 +201,29 @@ class VehicleRHS:
         R = np.zeros((N, nc, 1 + nu, self.width))
         F_S = np.empty((N, nc))
         for g, (mod, cols) in enumerate(self.groups):
-            resp, force = mod.mount_response(kin[g], np.tile(self.k_S[cols], N),
-                                             np.tile(self.c_S[cols], N),
-                                             (F_T - F_R)[:, cols].ravel(), rotation=self.roll)
-            R[:, cols, :, :resp.shape[2]] = resp.reshape(N, len(cols), 1 + nu, -1)
+            resp, force = mod.mount_response(
+                kin[g],
+                np.tile(self.k_S[cols], N),
+                np.tile(self.c_S[cols], N),
+                (F_T - F_R)[:, cols].ravel(),
+                rotation=self.roll,
+            )
+            R[:, cols, :, : resp.shape[2]] = resp.reshape(N, len(cols), 1 + nu, -1)
             F_S[:, cols] = force.reshape(N, len(cols))
         F0, G = eq.mount_forces(R, nu)
         acc = eq.chassis_mount_accelerations(F0, G, F_R, self.L, self.inertia)
         r = eq.mount_response(R, eq.mount_accelerations(acc, self.L))
-        out.update(q_W=wheel, F_S=F_S, F_R=F_R, F_T=F_T, zdd_W=r[..., 0], F_M=r[..., 1],
-                   wheel_z=wheel, zdd_C=acc[:, 0], thdd_C=acc[:, 1])
+        out.update(
+            q_W=wheel,
+            F_S=F_S,
+            F_R=F_R,
+            F_T=F_T,
+            zdd_W=r[..., 0],
+            F_M=r[..., 1],
+            wheel_z=wheel,
+            zdd_C=acc[:, 0],
+            thdd_C=acc[:, 1],
+        )
         chassis = [acc[:, 0], acc[:, 1]]
         if self.roll:
             out['phidd_C'] = acc[:, 2]
@@ -205,8 +238,7 @@ class VehicleRHS:
         rates = [y[1:2], s['zdd_C'], y[3:4], s['thdd_C']]
         if self.roll:
             rates += [y[5:6], s['phidd_C']]
-        return np.concatenate(rates + [y[nch + nc:nch + 2 * nc], s['zdd_W'][0],
-                                       s['dJ_dt'][0]])
+        return np.concatenate(rates + [y[nch + nc : nch + 2 * nc], s['zdd_W'][0], s['dJ_dt'][0]])
 
     def state_names(self) -> list[str]:
         names = ['z_C', 'v_C', 'theta_C', 'omega_C'] + (['phi_C', 'p_C'] if self.roll else [])
@@ -217,10 +249,17 @@ def _scenario(config: StudyConfig, scenario: int | Scenario) -> Scenario:
     return config.scenarios()[scenario] if isinstance(scenario, int) else scenario
 
 
-def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None = None,
-             *, scenario: int | Scenario = 0, t_eval: np.ndarray | None = None,
-             rtol: float = 1e-8, atol: float = 1e-11, modules: dict | None = None
-             ) -> Trajectory:
+def simulate(
+    config: StudyConfig,
+    fidelity: str,
+    design: dict[str, float] | None = None,
+    *,
+    scenario: int | Scenario = 0,
+    t_eval: np.ndarray | None = None,
+    rtol: float = 1e-8,
+    atol: float = 1e-11,
+    modules: dict | None = None,
+) -> Trajectory:
     """Integrate a model from the zero initial state over a scenario's horizon (SPEC §1).
 
     ``design`` defaults to the configured initial design. Returns the trajectory at
@@ -235,8 +274,15 @@ def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
     T = sc.horizon
     rhs = VehicleRHS(config, fidelity, design, sc, modules)
     # times where the road's second derivative jumps under a wheel
-    breaks = sorted({(s + off) / sc.speed for road in rhs.tracks for s in road.breakpoints()
-                     for off in rhs.offsets} | {0.0, T})
+    breaks = sorted(
+        {
+            (s + off) / sc.speed
+            for road in rhs.tracks
+            for s in road.breakpoints()
+            for off in rhs.offsets
+        }
+        | {0.0, T}
+    )
     breaks = [b for b in breaks if 0.0 <= b <= T]
     t_eval = np.linspace(0.0, T, 2001) if t_eval is None else np.asarray(t_eval, dtype=float)
     nch, nc = rhs.nch, rhs.nc
@@ -248,29 +294,40 @@ def simulate(config: StudyConfig, fidelity: str, design: dict[str, float] | None
         # the interpolant costs 3 more RHS calls per step: only when asked inside a piece
         interior = bool(np.any(mask & (t_eval > ta) & (t_eval < tb)))
         y_a = y
-        sol = solve_ivp(rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol,
-                        dense_output=interior)
+        sol = solve_ivp(
+            rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol, dense_output=interior
+        )
         if sol.status != 0:
-            raise ModelError(f'time marching ({fidelity} fidelity) failed at t = '
-                             f'{sol.t[-1]:.4g} s: {sol.message}')
+            raise ModelError(
+                f'time marching ({fidelity} fidelity) failed at t = '
+                f'{sol.t[-1]:.4g} s: {sol.message}'
+            )
         y = sol.y[:, -1]
         if not np.all(np.isfinite(y)):
             raise ModelError(f'time marching ({fidelity} fidelity) produced NaN/inf')
         if np.any(mask):
             pieces_t.append(t_eval[mask])
-            pieces_y.append(sol.sol(t_eval[mask]) if interior else np.stack(
-                [y_a if t == ta else y for t in t_eval[mask]], axis=1))
+            pieces_y.append(
+                sol.sol(t_eval[mask])
+                if interior
+                else np.stack([y_a if t == ta else y for t in t_eval[mask]], axis=1)
+            )
     ts = np.concatenate(pieces_t)
     ys = np.concatenate(pieces_y, axis=1)
     wall = time.perf_counter() - t0
     values = {name: ys[k] for k, name in enumerate(rhs.state_names())}
-    values['z_W'], values['v_W'] = ys[nch:nch + nc].T, ys[nch + nc:nch + 2 * nc].T
+    values['z_W'], values['v_W'] = ys[nch : nch + nc].T, ys[nch + nc : nch + 2 * nc].T
     values.update(rhs.signals(ts, ys))
-    info = {'rhs_evaluations': rhs.n_evals, 'wall_time_s': wall, 'fidelity': fidelity,
-            'method': 'time-marching', 'scenario': sc.name}
+    info = {
+        'rhs_evaluations': rhs.n_evals,
+        'wall_time_s': wall,
+        'fidelity': fidelity,
+        'method': 'time-marching',
+        'scenario': sc.name,
+    }
     if fidelity == 'mixed':
         info['max_constraint_residual_m'] = rhs.max_constraint_residual
-    return Trajectory(t=ts, values=values, J=y[nch + 2 * nc:].copy(), info=info)
+    return Trajectory(t=ts, values=values, J=y[nch + 2 * nc :].copy(), info=info)
 
 
 def reference_scales(config: StudyConfig) -> Scales:
@@ -283,8 +340,10 @@ def reference_scales(config: StudyConfig) -> Scales:
         zero = [t for t, j in zip(terms, J) if not j > 0.0]
         if zero:
             where = f'scenario {sc.name!r}: ' if config.scenario else ''
-            raise ConfigError(f'objective.normalization: {where}reference normalization '
-                              f'impossible: the road does not excite {", ".join(zero)} at '
-                              "the initial design; use normalization = 'custom' with scales")
+            raise ConfigError(
+                f'objective.normalization: {where}reference normalization '
+                f'impossible: the road does not excite {", ".join(zero)} at '
+                "the initial design; use normalization = 'custom' with scales"
+            )
         out.append(dict(zip(terms, (float(x) for x in J))))
     return tuple(out)

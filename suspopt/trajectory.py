@@ -1,4 +1,5 @@
 """A time history of a vehicle model: what collocation and time marching both produce."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

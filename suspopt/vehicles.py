@@ -28,6 +28,7 @@ to SAE 2007-01-0817 and 2007-01-0818):
   design makes a softer, less damped rear in the mixed model than in the low-fidelity
   one.
 """
+
 from __future__ import annotations
 
 BMW_E90 = {
@@ -36,10 +37,22 @@ BMW_E90 = {
         'chassis_mass': 1442.1,
         'chassis_pitch_inertia': 2487.0,
         'chassis_roll_inertia': 572.0,
-        'front': {'axle_position': 1.371, 'wheel_mass': 60.8, 'tyre_stiffness': 310526.3,
-                  'track': 1.500124, 'anti_roll_bar': True, 'mechanism': 'bmw_e90_front'},
-        'rear': {'axle_position': -1.38617, 'wheel_mass': 75.6, 'tyre_stiffness': 357859.2,
-                 'track': 1.4986, 'anti_roll_bar': True, 'mechanism': 'bmw_e90_rear'},
+        'front': {
+            'axle_position': 1.371,
+            'wheel_mass': 60.8,
+            'tyre_stiffness': 310526.3,
+            'track': 1.500124,
+            'anti_roll_bar': True,
+            'mechanism': 'bmw_e90_front',
+        },
+        'rear': {
+            'axle_position': -1.38617,
+            'wheel_mass': 75.6,
+            'tyre_stiffness': 357859.2,
+            'track': 1.4986,
+            'anti_roll_bar': True,
+            'mechanism': 'bmw_e90_rear',
+        },
     },
     'maneuver': {'speed': 20.0, 'horizon': 5.0},
     'road': {'profile': 'iso8608', 'road_class': 'C', 'seed': 1},

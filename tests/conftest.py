@@ -1,4 +1,5 @@
 """Shared fixtures: an isolated coloring cache per test session, single-threaded BLAS."""
+
 from __future__ import annotations
 
 import os

@@ -2,6 +2,7 @@
 objective integrals (eq. 4) marched by SciPy alone: a route to the low-fidelity model
 that shares no code with suspopt's models or time marching (only the road profile, an
 input)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -37,36 +38,40 @@ def half_car_matrices(cfg: StudyConfig, x: dict[str, float]) -> tuple[np.ndarray
     return A, B
 
 
-def _march(A: np.ndarray, B: np.ndarray, cfg: StudyConfig, step: float
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _march(
+    A: np.ndarray, B: np.ndarray, cfg: StudyConfig, step: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Grid times, states (N, 8) and wheel road heights (N, 2) from the zero state: exact
     for a road input linear between the grid times (``lsim``'s first-order hold)."""
     T = cfg.maneuver.horizon
     t = np.linspace(0.0, T, int(round(T / step)) + 1)
-    d, _ = wheel_road_inputs(cfg.road_profile(), t, cfg.maneuver.speed,
-                             (0.0, cfg.vehicle.wheelbase), rates=False)
+    d, _ = wheel_road_inputs(
+        cfg.road_profile(), t, cfg.maneuver.speed, (0.0, cfg.vehicle.wheelbase), rates=False
+    )
     _, _, y = lsim((A, B, np.eye(8), np.zeros((8, 2))), d.T, t, X0=np.zeros(8), interp=True)
     return t, y, d.T
 
 
-def states_by_hand(cfg: StudyConfig, x: dict[str, float], every: int = 100, *,
-                   step: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
+def states_by_hand(
+    cfg: StudyConfig, x: dict[str, float], every: int = 100, *, step: float = 1e-4
+) -> tuple[np.ndarray, np.ndarray]:
     """Times (every ``every`` steps of ``step``) and the states there, (N, 8), on grids of
     ``step`` and twice it, Richardson-extrapolated (the hold's error is O(step²))."""
     A, B = half_car_matrices(cfg, x)
     t, fine, _ = _march(A, B, cfg, step)
     _, coarse, _ = _march(A, B, cfg, 2 * step)
-    return t[::every], (4.0 * fine[::every] - coarse[::every // 2]) / 3.0
+    return t[::every], (4.0 * fine[::every] - coarse[:: every // 2]) / 3.0
 
 
 def _terms_on_grid(A: np.ndarray, B: np.ndarray, cfg: StudyConfig, step: float) -> np.ndarray:
     t, y, d = _march(A, B, cfg, step)
     acc = y @ A[4:6].T + d @ B[4:6].T  # z̈_C, θ̈ at every grid time
-    return trapezoid(np.column_stack([acc ** 2, y[:, 2:4] ** 2]), t, axis=0)
+    return trapezoid(np.column_stack([acc**2, y[:, 2:4] ** 2]), t, axis=0)
 
 
-def objective_terms_by_hand(cfg: StudyConfig, x: dict[str, float], *,
-                            step: float = 1e-3) -> np.ndarray:
+def objective_terms_by_hand(
+    cfg: StudyConfig, x: dict[str, float], *, step: float = 1e-3
+) -> np.ndarray:
     """(∫ z̈_C², ∫ θ̈², ∫ z_W1², ∫ z_W2²) over the horizon from the zero state (eq. 4's
     terms in the order of ``cfg.terms()``): the hand-written state space marched exactly
     for a piecewise-linear road input on a fixed grid (SciPy's ``lsim``, first-order hold

@@ -1,6 +1,7 @@
 """Background checks in forked children (suspopt.background): results come back as they
 would here, a child's exception is re-raised with its type, a child that dies is named,
 leaving the context stops the children, and without fork the jobs run in this process."""
+
 from __future__ import annotations
 
 import os
@@ -53,8 +54,11 @@ def test_a_childs_exception_and_death_are_reported():
         bg.submit('dead', _die)
         with pytest.raises(ValueError, match='no road file'):
             bg.result('bad')
-        with pytest.raises(BackgroundError, match=r"'suspopt dead' died without a result "
-                                                  r'\(exit code 3\)'):
+        with pytest.raises(
+            BackgroundError,
+            match=r"'suspopt dead' died without a result "
+            r'\(exit code 3\)',
+        ):
             bg.result('dead')
 
 
@@ -73,6 +77,7 @@ def test_a_time_marching_check_in_a_child_equals_the_one_here():
     """What a study's background verification returns is what the check returns here."""
     from suspopt.config import StudyConfig
     from suspopt.study import resolve_scales, time_marching_check
+
     cfg = StudyConfig()
     scales = resolve_scales(cfg)
     terms = [dict.fromkeys(cfg.terms(), 1.0)]

@@ -7,6 +7,7 @@ ratios equal a linear model derived by hand (Lagrange's equations), for both mou
 partials, declared sparsity and the exact total sparsity; check_totals of the coupled
 model; collocation against time marching.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -33,9 +34,12 @@ def with_mount(cfg, mount: str, **kw):
 def random_kinematics(mod: SuspensionModule, n: int, seed: int, roll: bool):
     rng = np.random.default_rng(seed)
     z, v = rng.uniform(-0.05, 0.05, n), rng.uniform(-0.5, 0.5, n)
-    pose = (rng.uniform(-0.02, 0.02, n), rng.uniform(-0.3, 0.3, n),
-            rng.uniform(-0.03, 0.03, n) if roll else np.zeros(n),
-            rng.uniform(-0.4, 0.4, n) if roll else np.zeros(n))
+    pose = (
+        rng.uniform(-0.02, 0.02, n),
+        rng.uniform(-0.3, 0.3, n),
+        rng.uniform(-0.03, 0.03, n) if roll else np.zeros(n),
+        rng.uniform(-0.4, 0.4, n) if roll else np.zeros(n),
+    )
     kin = mod.kinematics(z + pose[0], v + pose[1], pose=pose)
     k, c = rng.uniform(1e4, 5e4, n), rng.uniform(1e3, 5e3, n)
     return kin, k, c, rng.uniform(-3000.0, 3000.0, n), rng
@@ -49,12 +53,14 @@ def linkage_balance(mod: SuspensionModule, kin, k, c, F_T, acc):
     N = k.size
     loads = np.zeros((N, len(s.load_names)))
     loads[:, mod.tyre_load] = F_T
-    Q = s.generalized_forces(kin.state.q, loads, kin.state.qd,
-                             {mod.spring_name: {'stiffness': k, 'damping': c}})
+    Q = s.generalized_forces(
+        kin.state.q, loads, kin.state.qd, {mod.spring_name: {'stiffness': k, 'damping': c}}
+    )
     fr = mod.frame_accelerations(kin.pose)
     a_F = fr[0] + acc[:, :1] * fr[1] + acc[:, 1:] * fr[2]
-    qdd, _ = s.solve_augmented(kin.state.q, kin.state.qd, Q, Cq=kin.state.Cq,
-                               motion=mod.mount_motion(kin.pose, a_F))
+    qdd, _ = s.solve_augmented(
+        kin.state.q, kin.state.qd, Q, Cq=kin.state.Cq, motion=mod.mount_motion(kin.pose, a_F)
+    )
     m = s.mass_diag.reshape(-1, 3)
     q3, a3 = kin.state.q.reshape(N, -1, 3), qdd.reshape(N, -1, 3)
     P = np.stack([np.full(N, mod.mount_point[0]), mod.mount_point[1] + kin.pose[0]], -1)
@@ -73,8 +79,7 @@ def linkage_balance(mod: SuspensionModule, kin, k, c, F_T, acc):
 
 
 # ------------------------------------------------------------------ the module itself
-@pytest.mark.parametrize('mechanism', ['double_wishbone', 'sla_double_wishbone',
-                                       'macpherson'])
+@pytest.mark.parametrize('mechanism', ['double_wishbone', 'sla_double_wishbone', 'macpherson'])
 @pytest.mark.parametrize('roll', [False, True])
 def test_force_on_chassis_is_tyre_force_minus_linkage_inertia(mechanism, roll):
     """At random states, mount poses and mount accelerations: the force (x, z) and the
@@ -83,8 +88,7 @@ def test_force_on_chassis_is_tyre_force_minus_linkage_inertia(mechanism, roll):
     acceleration is the affine combination of the reported blocks."""
     mod = SuspensionModule(mechanism, mount='chassis')
     kin, k, c, F_T, rng = random_kinematics(mod, 40, 1, roll)
-    acc = np.stack([rng.uniform(-5, 5, 40), rng.uniform(-3, 3, 40) if roll
-                    else np.zeros(40)], -1)
+    acc = np.stack([rng.uniform(-5, 5, 40), rng.uniform(-3, 3, 40) if roll else np.zeros(40)], -1)
     blocks, _ = mod.mount_response(kin, k, c, F_T, rotation=True)
     at, _ = mod.mount_response(kin, k, c, F_T, acceleration=acc)
     affine = eq.mount_response(blocks[:, None], acc[:, None])[:, 0]
@@ -94,8 +98,10 @@ def test_force_on_chassis_is_tyre_force_minus_linkage_inertia(mechanism, roll):
     err_z = np.max(np.abs(at[:, 0, 1] - F[:, 1])) / scale
     err_x = np.max(np.abs(at[:, 0, 3] - F[:, 0])) / scale
     err_m = np.max(np.abs(at[:, 0, 2] - M)) / scale
-    print(f'\n{mechanism}, roll {roll}: |F_z - (F_T - Σ m a_z)| = {err_z:.1e} F_T, '
-          f'x {err_x:.1e}, moment about P {err_m:.1e} F_T·m')
+    print(
+        f'\n{mechanism}, roll {roll}: |F_z - (F_T - Σ m a_z)| = {err_z:.1e} F_T, '
+        f'x {err_x:.1e}, moment about P {err_m:.1e} F_T·m'
+    )
     assert max(err_z, err_x, err_m) < 1e-9
 
 
@@ -108,16 +114,27 @@ def test_chassis_side_reactions_add_up_to_the_force_on_the_chassis():
     acc = np.stack([rng.uniform(-5, 5, 30), np.zeros(30)], -1)
     R, F_S = mod.mount_response(kin, k, c, F_T, acceleration=acc)
     joints = R[:, 0, 4:].reshape(30, -1, 2)
-    on_frame = [i for i, b in enumerate(mod.solver.joint_bodies[:mod.n_joints]) if b[1] == 'F']
+    on_frame = [i for i, b in enumerate(mod.solver.joint_bodies[: mod.n_joints]) if b[1] == 'F']
     assert [mod.solver.joint_names[i] for i in on_frame] == ['U-F', 'L-F']
     F_z = -joints[:, on_frame, 1].sum(axis=1) + F_S
     np.testing.assert_allclose(R[:, 0, 1], F_z, rtol=0, atol=1e-9 * np.max(np.abs(F_T)))
-    heavy = dataclasses.replace(mod.mechanism, bodies=tuple(
-        dataclasses.replace(b, mass=50.0 * b.mass, inertia=9.0) if b.name == 'F' else b
-        for b in mod.mechanism.bodies))
-    other = SuspensionModule(dataclasses.replace(heavy, joints=heavy.joints[:-1], bodies=tuple(
-        dataclasses.replace(b, fixed=True) if b.name == 'F' else b for b in heavy.bodies)),
-        mount='chassis')
+    heavy = dataclasses.replace(
+        mod.mechanism,
+        bodies=tuple(
+            dataclasses.replace(b, mass=50.0 * b.mass, inertia=9.0) if b.name == 'F' else b
+            for b in mod.mechanism.bodies
+        ),
+    )
+    other = SuspensionModule(
+        dataclasses.replace(
+            heavy,
+            joints=heavy.joints[:-1],
+            bodies=tuple(
+                dataclasses.replace(b, fixed=True) if b.name == 'F' else b for b in heavy.bodies
+            ),
+        ),
+        mount='chassis',
+    )
     kin2 = other.kinematics(kin.q_W, kin.qd_W, pose=kin.pose)
     R2, _ = other.mount_response(kin2, k, c, F_T, acceleration=acc)
     np.testing.assert_allclose(R2, R, rtol=0, atol=1e-9 * np.max(np.abs(R)))
@@ -142,8 +159,9 @@ def hand_linear_model(cfg, design: dict[str, float], mount: str):
     c_m, m_L = M_W + 2 * M_ARM * r, M_W + 2 * M_ARM
     Mm = np.diag([v.chassis_mass, v.chassis_pitch_inertia, 0.0, 0.0])
     K, C = np.zeros((4, 4)), np.zeros((4, 4))
-    for i, (ax, k, c) in enumerate(zip(v.axles, (design['k_S1'], design['k_S2']),
-                                       (design['c_S1'], design['c_S2']))):
+    for i, (ax, k, c) in enumerate(
+        zip(v.axles, (design['k_S1'], design['k_S2']), (design['c_S1'], design['c_S2']))
+    ):
         e = np.array([1.0, -ax.axle_position, 0.0, 0.0])  # z_M
         f = np.zeros(4)
         f[2 + i] = 1.0  # s_i
@@ -194,8 +212,10 @@ def test_small_amplitude_modes_equal_the_hand_derived_linear_model(cfg, mount):
     f_hand, zeta_hand = modes(A_hand)
     f_mb, zeta_mb = modes(linearized_rhs(with_mount(cfg, mount), design))
     df, dz = np.max(np.abs(f_mb / f_hand - 1)), np.max(np.abs(zeta_mb / zeta_hand - 1))
-    print(f'\n{mount} mount: f [Hz] {np.round(f_mb, 4)}, zeta {np.round(zeta_mb, 4)}; '
-          f'largest relative difference to the hand model: f {df:.1e}, zeta {dz:.1e}')
+    print(
+        f'\n{mount} mount: f [Hz] {np.round(f_mb, 4)}, zeta {np.round(zeta_mb, 4)}; '
+        f'largest relative difference to the hand model: f {df:.1e}, zeta {dz:.1e}'
+    )
     np.testing.assert_allclose(f_mb, f_hand, rtol=1e-6)
     np.testing.assert_allclose(zeta_mb, zeta_hand, rtol=1e-6)
 
@@ -206,11 +226,13 @@ POSE = {'z_M': 0.02, 'v_M': 0.3, 'psi_M': 0.03, 'w_M': 0.4}
 
 def blackbox_problem(Comp, nn: int, roll: bool, seed: int = 0):
     from suspopt.multibody.components import ChassisMountDynamicsComp
+
     mod = SuspensionModule('double_wishbone', mount='chassis')
     p = om.Problem(reports=False)
     opts = {} if Comp is ChassisMountDynamicsComp else {'mount': 'chassis'}
-    comp = p.model.add_subsystem('c', Comp(num_nodes=nn, corners=1, modules=(mod,), roll=roll,
-                                           **opts), promotes=['*'])
+    comp = p.model.add_subsystem(
+        'c', Comp(num_nodes=nn, corners=1, modules=(mod,), roll=roll, **opts), promotes=['*']
+    )
     p.setup()
     rng = np.random.default_rng(seed)
     ins = list(comp.list_inputs(out_stream=None, prom_name=False, return_format='dict'))
@@ -251,8 +273,8 @@ def test_chassis_mounted_black_boxes_fd_and_sparsity(kind, roll):
     """The chassis-mounted black boxes: their FD partials (forward, inside
     compute_partials) equal independent central differences (1e-4 of each block), the
     true Jacobian is node-diagonal, and one Jacobian costs one black-box call per input."""
-    from suspopt.multibody.components import (ChassisMountDynamicsComp,
-                                              SuspensionKinematicsComp)
+    from suspopt.multibody.components import ChassisMountDynamicsComp, SuspensionKinematicsComp
+
     Comp = SuspensionKinematicsComp if kind == 'kinematics' else ChassisMountDynamicsComp
     nn = 6
     p, comp, x, ins, outs = blackbox_problem(Comp, nn, roll)
@@ -295,8 +317,11 @@ def chassis_problem(cfg, scales):
     car's time-marching trajectory (a non-converged point: every node differs)."""
     from suspopt.timemarching import simulate
     from suspopt.transcription.problem import VehicleProblem
-    small = with_mount(cfg.replace(transcription=dataclasses.replace(
-        cfg.transcription, segments=4, order=3)), 'chassis')
+
+    small = with_mount(
+        cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=4, order=3)),
+        'chassis',
+    )
     with VehicleProblem(small, 'mixed', scales) as vp:
         vp.set_design(X0)
         vp.set_initial_guess(simulate(small, 'low', X0, rtol=1e-6, atol=1e-9))
@@ -327,10 +352,13 @@ def test_force_balance_and_closed_loop_at_every_node(chassis_problem):
         worst = max(worst, np.max(np.abs(F_M[:, i] - F[:, 1])) / np.max(np.abs(F_T)))
     v = cfg.vehicle
     heave = np.max(np.abs(v.chassis_mass * zdd_C - F_M.sum(1))) / np.max(np.abs(F_M))
-    pitch = np.max(np.abs(v.chassis_pitch_inertia * thdd_C + F_M @ lay.a)) \
-        / np.max(np.abs(F_M @ lay.a))
-    print(f'\n{nn} nodes: |F_M - (F_T - Σ m a_z)| <= {worst:.1e} F_T; chassis equations '
-          f'with those forces: heave {heave:.1e}, pitch {pitch:.1e}')
+    pitch = np.max(np.abs(v.chassis_pitch_inertia * thdd_C + F_M @ lay.a)) / np.max(
+        np.abs(F_M @ lay.a)
+    )
+    print(
+        f'\n{nn} nodes: |F_M - (F_T - Σ m a_z)| <= {worst:.1e} F_T; chassis equations '
+        f'with those forces: heave {heave:.1e}, pitch {pitch:.1e}'
+    )
     assert np.max(np.abs(F_T)) > 100.0 and np.max(np.abs(zdd_C)) > 0.1
     assert worst < 1e-9 and heave < 1e-9 and pitch < 1e-9
 
@@ -343,9 +371,16 @@ def test_check_totals_of_the_coupled_nlp(chassis_problem):
     lay = vp.driver.layout()
     of = ['objective.f'] + [c.name for c in lay.constraints]
     wrt = [v.name for v in lay.design_vars]
-    data = vp.problem.check_totals(of=of, wrt=wrt, method='fd', form='central', step=1e-4,
-                                   step_calc='rel_avg', out_stream=None,
-                                   driver_scaling=False)
+    data = vp.problem.check_totals(
+        of=of,
+        wrt=wrt,
+        method='fd',
+        form='central',
+        step=1e-4,
+        step_calc='rel_avg',
+        out_stream=None,
+        driver_scaling=False,
+    )
     worst = {}
     for (o, w), d in data.items():
         J_fd, J_an = np.asarray(d['J_fd']), np.asarray(d.get('J_fwd', d.get('J_rev')))
@@ -353,7 +388,7 @@ def test_check_totals_of_the_coupled_nlp(chassis_problem):
         if scale > 0.0:
             kind = 'design' if 'parameters' in w else 'states'
             worst[kind] = max(worst.get(kind, 0.0), np.max(np.abs(J_an - J_fd)) / scale)
-    print(f'\ncheck_totals: largest difference of each block\'s largest entry {worst}')
+    print(f"\ncheck_totals: largest difference of each block's largest entry {worst}")
     assert set(worst) == {'design', 'states'}
     assert max(worst.values()) < 1e-4
 
@@ -364,13 +399,20 @@ def test_frame_follows_the_chassis_on_both_sides_of_a_rolling_car():
     chassis point at its lateral position, y = y_c + side (x - x_P), z_C - a θ + y φ
     (small angles: to first order in φ)."""
     from suspopt.transcription.problem import mount_poses
+
     full = full_car_defaults()
     lay = full.layout()
     mod = SuspensionModule('double_wishbone', mount='chassis')
     s = mod.solver
     phi = 1e-4
-    values = {'z_C': np.array([0.01]), 'theta_C': np.array([0.002]), 'phi_C': np.array([phi]),
-              'v_C': np.zeros(1), 'omega_C': np.zeros(1), 'p_C': np.zeros(1)}
+    values = {
+        'z_C': np.array([0.01]),
+        'theta_C': np.array([0.002]),
+        'phi_C': np.array([phi]),
+        'v_C': np.zeros(1),
+        'omega_C': np.zeros(1),
+        'p_C': np.zeros(1),
+    }
     poses = mount_poses(lay, values)
     mk = s.marker_names.index('spring_mount')
     x_mount = s.marker_reference()[mk, 0]
@@ -393,12 +435,21 @@ def full_chassis_problem(scales):
     a state guess of its half-car-like time marching (non-converged)."""
     from suspopt.timemarching import simulate
     from suspopt.transcription.problem import VehicleProblem
+
     full = full_car_defaults()
-    full = with_mount(config_from_dict({**full.to_dict(), 'maneuver': {'horizon': 1.0},
-                                        'objective': {'normalization': 'custom',
-                                                      'scales': dict.fromkeys(full.terms(),
-                                                                              1.0)}}),
-                      'chassis')
+    full = with_mount(
+        config_from_dict(
+            {
+                **full.to_dict(),
+                'maneuver': {'horizon': 1.0},
+                'objective': {
+                    'normalization': 'custom',
+                    'scales': dict.fromkeys(full.terms(), 1.0),
+                },
+            }
+        ),
+        'chassis',
+    )
     # a structure test: 3 segments (too coarse for results, refused in a study file)
     full = full.replace(transcription=dataclasses.replace(full.transcription, segments=3))
     with VehicleProblem(full, 'mixed', (dict.fromkeys(full.terms(), 1.0),)) as vp:
@@ -425,10 +476,10 @@ def test_full_car_roll_balance_at_every_node(full_chassis_problem):
         mod = vp.modules[cfg.vehicle.axles[corner.axle].mechanism]
         pose = (get('z_M')[:, i], get('v_M')[:, i], get('psi_M')[:, i], get('w_M')[:, i])
         kin = mod.kinematics(get('z_W')[:, i], get('v_W')[:, i], pose=pose)
-        F, M = linkage_balance(mod, kin, np.full(nn, get('k_S')[i]),
-                               np.full(nn, get('c_S')[i]), F_W[:, i], a_M[:, i])
-        np.testing.assert_allclose(F_M[:, i], F[:, 1], rtol=0,
-                                   atol=1e-9 * np.max(np.abs(F_W)))
+        F, M = linkage_balance(
+            mod, kin, np.full(nn, get('k_S')[i]), np.full(nn, get('c_S')[i]), F_W[:, i], a_M[:, i]
+        )
+        np.testing.assert_allclose(F_M[:, i], F[:, 1], rtol=0, atol=1e-9 * np.max(np.abs(F_W)))
         Fz = F[:, 1] + F_R[:, i]
         Q += np.stack([Fz, -corner.a * Fz, corner.y * Fz + corner.side * M], -1)
     v = cfg.vehicle
@@ -444,13 +495,20 @@ def test_reduced_gradient_matches_fd_of_the_converged_coupled_model(cfg, scales)
     """df/dx of the converged chassis-mounted model (its NLP's total Jacobian: the MAUD
     assembly of analytic partials, the closed loop and the black boxes' forward FD)
     against central differences of converged collocation solutions (to 1e-13): 1e-5."""
+    from test_mixed_fidelity import _reduced_gradient
+
     from suspopt.timemarching import simulate
     from suspopt.transcription.problem import VehicleProblem
-    from test_mixed_fidelity import _reduced_gradient
-    base = with_mount(cfg.replace(
-        transcription=dataclasses.replace(cfg.transcription, segments=30),
-        optimizer=dataclasses.replace(cfg.optimizer, tol=1e-13,
-                                      options={'constr_viol_tol': 1e-14})), 'chassis')
+
+    base = with_mount(
+        cfg.replace(
+            transcription=dataclasses.replace(cfg.transcription, segments=30),
+            optimizer=dataclasses.replace(
+                cfg.optimizer, tol=1e-13, options={'constr_viol_tol': 1e-14}
+            ),
+        ),
+        'chassis',
+    )
     with VehicleProblem(base, 'mixed', scales, optimize_design=False) as vp:
         vp.set_design(X0)
         vp.set_initial_guess(simulate(base, 'low', X0, rtol=1e-7, atol=1e-10))
@@ -465,8 +523,10 @@ def test_reduced_gradient_matches_fd_of_the_converged_coupled_model(cfg, scales)
                 assert vp.solve(optimize=False).success
                 vals.append(vp.objective())
             fd.append((vals[0] - vals[1]) / (2 * h))
-    print(f'\nreduced gradient vs central differences of the converged model: '
-          f'{np.max(np.abs(grad / np.array(fd) - 1)):.1e}')
+    print(
+        f'\nreduced gradient vs central differences of the converged model: '
+        f'{np.max(np.abs(grad / np.array(fd) - 1)):.1e}'
+    )
     np.testing.assert_allclose(grad, fd, rtol=1e-5)
 
 
@@ -475,10 +535,13 @@ def test_collocation_matches_time_marching_on_the_default_grid(cfg, scales):
     """The chassis-mounted model on the default 80 × 5 grid at the initial design: every
     J_k within 0.1 % of time marching; the multibody constraints hold (1e-10 m)."""
     from suspopt.study import evaluate
+
     res = evaluate(with_mount(cfg, 'chassis'), 'mixed', scales=scales)
     v = res['verification']
-    print(f"\ncollocation vs time marching: {v['max_rel_diff']:.1e} "
-          f"({v['scenarios'][0]['worst_term']})")
+    print(
+        f'\ncollocation vs time marching: {v["max_rel_diff"]:.1e} '
+        f'({v["scenarios"][0]["worst_term"]})'
+    )
     assert res['verified'] and v['max_rel_diff'] < 1e-3
     assert res['max_constraint_residual_m'] < 1e-10
     assert v['scenarios'][0]['max_constraint_residual_m'] < 1e-10
@@ -493,6 +556,7 @@ def test_coupling_command_table_and_report(tmp_path, capsys):
     import json
 
     from suspopt.cli import main
+
     study = tmp_path / 'short.toml'
     study.write_text('[maneuver]\nhorizon = 1.0\n[transcription]\nsegments = 16\n')
     out = tmp_path / 'coupling'
@@ -502,7 +566,8 @@ def test_coupling_command_table_and_report(tmp_path, capsys):
     ev = res['evaluations']
     assert {m: sorted(v) for m, v in ev.items()} == {
         m: sorted(['initial', 'low_optimum', 'ground_optimum', 'chassis_optimum'])
-        for m in ('low', 'ground', 'chassis')}
+        for m in ('low', 'ground', 'chassis')
+    }
     assert all(e['verified'] for v in ev.values() for e in v.values())
     for model in ('low', 'ground', 'chassis'):
         own = ev[model][f'{model}_optimum']['objective']

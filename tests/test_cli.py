@@ -1,4 +1,5 @@
 """The command line end to end: outputs, refusals, failures, interruption, report."""
+
 from __future__ import annotations
 
 import json
@@ -13,8 +14,16 @@ import pytest
 from suspopt.cli import main
 
 pytestmark = pytest.mark.slow
-KEYS = {'fidelity', 'design', 'objective', 'terms', 'scales', 'success', 'iterations',
-        'wall_time_s'}
+KEYS = {
+    'fidelity',
+    'design',
+    'objective',
+    'terms',
+    'scales',
+    'success',
+    'iterations',
+    'wall_time_s',
+}
 #: a grid quick to solve that still verifies (0.5 %) on the default road
 GRID = ['--segments', '60']
 
@@ -32,20 +41,33 @@ def test_evaluate_prints_json(capsys):
     assert KEYS <= set(res) and res['method'] == 'time-marching'
     assert abs(res['objective'] - 1.0) < 1e-6  # reference normalization at the initial design
     # the mixed model's lightly damped wheel hop needs the default grid (60 x 5: 0.9 %)
-    code, out, _ = _run(['evaluate', '--fidelity', 'mixed', '--design', '37500,28100,1500,1235',
-                         '--normalization', 'paper'], capsys)
+    code, out, _ = _run(
+        [
+            'evaluate',
+            '--fidelity',
+            'mixed',
+            '--design',
+            '37500,28100,1500,1235',
+            '--normalization',
+            'paper',
+        ],
+        capsys,
+    )
     assert code == 0
     res = json.loads(out)
-    assert KEYS <= set(res) and res['scales'] == {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0,
-                                                  'wheel_2': 1.0}
+    assert KEYS <= set(res) and res['scales'] == {
+        'heave': 0.1,
+        'pitch': 0.01,
+        'wheel_1': 1.0,
+        'wheel_2': 1.0,
+    }
     assert res['verified'] is True
     assert res['design']['k_S1'] == 37500.0 and res['success']
 
 
 def test_optimize_writes_results_and_refuses_to_overwrite(tmp_path, capsys):
     out = tmp_path / 'opt'
-    code, stdout, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out)],
-                                capsys)
+    code, stdout, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out)], capsys)
     assert code == 0
     res = json.loads((out / 'result.json').read_text())
     assert KEYS <= set(res) and res['success'] and res['iterations'] > 0
@@ -53,25 +75,30 @@ def test_optimize_writes_results_and_refuses_to_overwrite(tmp_path, capsys):
     assert 'objective f =' in stdout and 'iter' in stderr and 'constr.viol' in stderr
     code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out)], capsys)
     assert code == 2 and 'already contains results' in stderr and '--overwrite' in stderr
-    code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--out', str(out),
-                            '--overwrite', '--quiet'], capsys)
+    code, _, stderr = _run(
+        ['optimize', '--fidelity', 'low', *GRID, '--out', str(out), '--overwrite', '--quiet'],
+        capsys,
+    )
     assert code == 0 and stderr == ''
     # report re-renders an optimize run from its records alone
     code, stdout, _ = _run(['report', str(out)], capsys)
     res = json.loads((out / 'result.json').read_text())
     assert code == 0 and 'Solve_Succeeded' in stdout
-    assert f"| result | {res['design']['k_S1']:.0f} | {res['design']['k_S2']:.0f} |" in stdout
-    assert f"{res['objective']:.4f}" in stdout
+    assert f'| result | {res["design"]["k_S1"]:.0f} | {res["design"]["k_S2"]:.0f} |' in stdout
+    assert f'{res["objective"]:.4f}' in stdout
     for name in ('road', 'trajectories', 'convergence'):
         assert (out / 'figures' / f'{name}.png').stat().st_size > 10_000
-    assert json.loads((out / 'result.json').read_text())['config']['transcription'][
-        'segments'] == 60
+    assert (
+        json.loads((out / 'result.json').read_text())['config']['transcription']['segments'] == 60
+    )
 
 
 def test_iteration_limit_exits_1_and_keeps_results(tmp_path, capsys):
     out = tmp_path / 'limited'
-    code, _, stderr = _run(['optimize', '--fidelity', 'low', *GRID, '--max-iter', '2',
-                            '--out', str(out), '--quiet'], capsys)
+    code, _, stderr = _run(
+        ['optimize', '--fidelity', 'low', *GRID, '--max-iter', '2', '--out', str(out), '--quiet'],
+        capsys,
+    )
     assert code == 1
     res = json.loads((out / 'result.json').read_text())
     assert res['success'] is False and res['status'] == 'Maximum_Iterations_Exceeded'
@@ -82,10 +109,23 @@ def test_iteration_limit_exits_1_and_keeps_results(tmp_path, capsys):
 def test_ctrl_c_stops_cleanly(tmp_path):
     """SIGINT ends IPOPT after the current iteration; results and recorder are kept."""
     out = tmp_path / 'interrupted'
-    proc = subprocess.Popen([sys.executable, '-m', 'suspopt.cli', 'optimize', '--fidelity',
-                             'mixed', *GRID, '--out', str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, 'PYTHONUNBUFFERED': '1'})
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            '-m',
+            'suspopt.cli',
+            'optimize',
+            '--fidelity',
+            'mixed',
+            *GRID,
+            '--out',
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, 'PYTHONUNBUFFERED': '1'},
+    )
     lines = []
     for line in proc.stderr:
         lines.append(line)
@@ -111,8 +151,22 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
     assert main(['study', '--segments', '30', '--out', str(a)]) == 3
     stderr = capsys.readouterr().err
     assert 'not verified: collocation and time marching differ by' in stderr
-    assert main(['study', '--segments', '30', '--out', str(b), '--quiet', '--no-verify',
-                 '--config', str(tmp_path / 'case.toml')]) == 0
+    assert (
+        main(
+            [
+                'study',
+                '--segments',
+                '30',
+                '--out',
+                str(b),
+                '--quiet',
+                '--no-verify',
+                '--config',
+                str(tmp_path / 'case.toml'),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     sa = json.loads((a / 'study.json').read_text())
     sb = json.loads((b / 'study.json').read_text())
@@ -120,8 +174,9 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
     assert sa['designs'] == sb['designs']
     for key, ev in sa['evaluations'].items():
         assert ev['objective'] == sb['evaluations'][key]['objective'], key
-    assert set(sa['evaluations']) == {f'{m}/{d}' for m in ('low', 'mixed') for d in
-                                      ('initial', 'low_optimum', 'mixed_optimum')}
+    assert set(sa['evaluations']) == {
+        f'{m}/{d}' for m in ('low', 'mixed') for d in ('initial', 'low_optimum', 'mixed_optimum')
+    }
     for key, ev in sa['evaluations'].items():  # the recorded comparison is consistent
         v, coll = ev['verification'], ev['terms']
         tm = v['scenarios'][0]['terms']
@@ -132,12 +187,20 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
     assert sa['verified'] is False and sb['verified'] is None
     table = (a / 'table.md').read_text()
     assert table.startswith('**Warning:** not verified: collocation and time marching differ')
-    assert ('f = 0.25 J_heave/s_heave + 0.25 J_pitch/s_pitch + 0.25 J_wheel_1/s_wheel_1 + '
-            '0.25 J_wheel_2/s_wheel_2.') in table
+    assert (
+        'f = 0.25 J_heave/s_heave + 0.25 J_pitch/s_pitch + 0.25 J_wheel_1/s_wheel_1 + '
+        '0.25 J_wheel_2/s_wheel_2.'
+    ) in table
     assert '**Not checked:**' in (b / 'table.md').read_text()
     figures = sorted(p.name for p in (a / 'figures').iterdir())
-    assert figures == ['convergence.png', 'cross_evaluation.png', 'initial_design.png',
-                       'optima.png', 'road.png', 'verification.png']
+    assert figures == [
+        'convergence.png',
+        'cross_evaluation.png',
+        'initial_design.png',
+        'optima.png',
+        'road.png',
+        'verification.png',
+    ]
     (a / 'table.md').unlink()
     for p in (a / 'figures').iterdir():
         p.unlink()
@@ -157,13 +220,27 @@ def test_linkage_beyond_its_range_exits_1_naming_the_cause(tmp_path, capsys):
     cfg = tmp_path / 'big.toml'
     cfg.write_text(BIG_BUMP)
     t0 = time.perf_counter()
-    code, _, err = _run(['evaluate', '--fidelity', 'mixed', '--method', 'time-marching',
-                         '--config', str(cfg)], capsys)
+    code, _, err = _run(
+        ['evaluate', '--fidelity', 'mixed', '--method', 'time-marching', '--config', str(cfg)],
+        capsys,
+    )
     assert code == 1 and time.perf_counter() - t0 < 30.0
     assert 'toggle' in err and 'edge of its range' in err and 'Traceback' not in err
     out = tmp_path / 'opt'
-    code, _, err = _run(['optimize', '--fidelity', 'mixed', '--config', str(cfg), *GRID,
-                         '--out', str(out), '--quiet'], capsys)
+    code, _, err = _run(
+        [
+            'optimize',
+            '--fidelity',
+            'mixed',
+            '--config',
+            str(cfg),
+            *GRID,
+            '--out',
+            str(out),
+            '--quiet',
+        ],
+        capsys,
+    )
     assert code == 1 and 'model evaluation failed at the starting point' in err
     res = json.loads((out / 'result.json').read_text())
     assert res['success'] is False and res['status'] == 'Model_Error'
@@ -185,15 +262,26 @@ def test_start_moves_ipopt_not_the_normalization(tmp_path, capsys):
     same optimum."""
     from suspopt.config import StudyConfig
     from suspopt.study import resolve_scales
+
     results = []
     for name, start in (('a', []), ('b', ['--start', '45000,15000,4000,1500'])):
-        code, _, _ = _run(['optimize', '--fidelity', 'low', *GRID, '--quiet',
-                           '--out', str(tmp_path / name), *start], capsys)
+        code, _, _ = _run(
+            [
+                'optimize',
+                '--fidelity',
+                'low',
+                *GRID,
+                '--quiet',
+                '--out',
+                str(tmp_path / name),
+                *start,
+            ],
+            capsys,
+        )
         assert code == 0
         results.append(json.loads((tmp_path / name / 'result.json').read_text()))
     (s,) = resolve_scales(StudyConfig())
     for res in results:
         assert res['scales'] == s
-    assert results[1]['start'] == {'k_S1': 45000.0, 'k_S2': 15000.0, 'c_S1': 4000.0,
-                                   'c_S2': 1500.0}
+    assert results[1]['start'] == {'k_S1': 45000.0, 'k_S2': 15000.0, 'c_S1': 4000.0, 'c_S2': 1500.0}
     assert abs(results[0]['objective'] - results[1]['objective']) < 1e-7

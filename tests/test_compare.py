@@ -8,6 +8,7 @@
   ``compare.json`` and its report), bad ``--mechanisms`` refused before any work (exit 2);
 * the full car with a MacPherson front and a double-wishbone rear axle, verified.
 """
+
 from __future__ import annotations
 
 import copy
@@ -22,7 +23,7 @@ from suspopt.compare_report import compare_markdown
 from suspopt.errors import ModelError
 from suspopt.results import read_json
 
-TINY = '''
+TINY = """
 [maneuver]
 horizon = 0.6
 [road]
@@ -30,7 +31,7 @@ profile = "bump"
 start = 0.3
 [transcription]
 segments = 12
-'''
+"""
 
 
 @pytest.fixture()
@@ -43,8 +44,18 @@ def tiny(tmp_path):
 @pytest.mark.slow
 def test_compare_end_to_end(tiny, tmp_path, capsys):
     out = tmp_path / 'cmp'
-    rc = main(['compare', '--mechanisms', 'double_wishbone,macpherson', '--config', tiny,
-               '--out', str(out), '--quiet'])
+    rc = main(
+        [
+            'compare',
+            '--mechanisms',
+            'double_wishbone,macpherson',
+            '--config',
+            tiny,
+            '--out',
+            str(out),
+            '--quiet',
+        ]
+    )
     assert rc == 0, capsys.readouterr().err
     data = read_json(out / 'compare.json')
     assert data['complete'] and data['verified'] is True and not data['failures']
@@ -59,8 +70,11 @@ def test_compare_end_to_end(tiny, tmp_path, capsys):
             assert c['verification']['max_rel_diff'] < data['tolerance']
             f[d, m] = c['objective']
     # each model's own optimum is the best design in it (its optimization worked) ...
-    own = {'low': 'low_optimum', 'mixed:double_wishbone': 'optimum:double_wishbone',
-           'mixed:macpherson': 'optimum:macpherson'}
+    own = {
+        'low': 'low_optimum',
+        'mixed:double_wishbone': 'optimum:double_wishbone',
+        'mixed:macpherson': 'optimum:macpherson',
+    }
     for m, d_own in own.items():
         assert all(f[d_own, m] <= f[d, m] * (1 + 1e-6) for d in designs), m
         assert data['best'][m]['best'] == d_own
@@ -70,8 +84,9 @@ def test_compare_end_to_end(tiny, tmp_path, capsys):
     assert data['best']['mixed:double_wishbone']['excess']['optimum:macpherson'] > 0.01
     # the kinematics of the linkages (paper Table 2: spring at 0.15 of the 0.33 m arm)
     kin = data['kinematics']['curves']
-    assert kin['double_wishbone']['at_reference']['motion_ratio'] == pytest.approx(0.15 / 0.33,
-                                                                                   rel=1e-6)
+    assert kin['double_wishbone']['at_reference']['motion_ratio'] == pytest.approx(
+        0.15 / 0.33, rel=1e-6
+    )
     assert 0.9 < kin['macpherson']['at_reference']['motion_ratio'] < 1.0
     table = (out / 'table.md').read_text()
     assert 'Cross table' in table
@@ -97,8 +112,12 @@ def test_compare_end_to_end(tiny, tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ orchestration
-def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = None,
-              interrupt: str | None = None):
+def _stand_in(
+    monkeypatch,
+    fail: str | None = None,
+    unverified: str | None = None,
+    interrupt: str | None = None,
+):
     """Replace the solves of :mod:`suspopt.compare` by records of a made-up objective
     (a quadratic bowl per model); ``fail``/``interrupt``: the topology whose optimization
     raises a ModelError / KeyboardInterrupt; ``unverified``: a cell ``design|model`` whose
@@ -112,8 +131,11 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
         v = cfg.vehicle
         if fid == 'low':
             return 'low'
-        return 'mixed:' + (v.front.mechanism if v.front.mechanism == v.rear.mechanism
-                           else f'{v.front.mechanism}+{v.rear.mechanism}')
+        return 'mixed:' + (
+            v.front.mechanism
+            if v.front.mechanism == v.rear.mechanism
+            else f'{v.front.mechanism}+{v.rear.mechanism}'
+        )
 
     def f_of(cfg, fid, design):
         c = centre[model_of(cfg, fid)]
@@ -124,13 +146,27 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
         f = f_of(cfg, fid, design)
         key = f'{label}|{key_of(cfg, fid)}'
         ok = key != unverified
-        return {'fidelity': fid, 'mode': mode, 'method': 'collocation', 'design': design,
-                'objective': f, 'terms': dict.fromkeys(cfg.terms(), f), 'success': True,
-                'status': 'Solve_Succeeded', 'iterations': 3, 'times': {'solve_s': 0.0},
-                'wall_time_s': 0.0, 'verified': ok,
-                'verification': {'verified': ok, 'objective': f, 'tolerance': 5e-3,
-                                 'max_rel_diff': 1e-4 if ok else 0.02,
-                                 'scenarios': [{'worst_term': 'heave'}]}}
+        return {
+            'fidelity': fid,
+            'mode': mode,
+            'method': 'collocation',
+            'design': design,
+            'objective': f,
+            'terms': dict.fromkeys(cfg.terms(), f),
+            'success': True,
+            'status': 'Solve_Succeeded',
+            'iterations': 3,
+            'times': {'solve_s': 0.0},
+            'wall_time_s': 0.0,
+            'verified': ok,
+            'verification': {
+                'verified': ok,
+                'objective': f,
+                'tolerance': 5e-3,
+                'max_rel_diff': 1e-4 if ok else 0.02,
+                'scenarios': [{'worst_term': 'heave'}],
+            },
+        }
 
     def evaluate(cfg, fid, design, *, label=None, **kw):
         return record(cfg, fid, design, 'evaluate', label)
@@ -169,8 +205,19 @@ def _stand_in(monkeypatch, fail: str | None = None, unverified: str | None = Non
 
 
 def _run(tiny, out, capsys, extra=()):
-    rc = main(['compare', '--mechanisms', 'double_wishbone,macpherson', '--config', tiny,
-               '--out', str(out), '--quiet', *extra])
+    rc = main(
+        [
+            'compare',
+            '--mechanisms',
+            'double_wishbone,macpherson',
+            '--config',
+            tiny,
+            '--out',
+            str(out),
+            '--quiet',
+            *extra,
+        ]
+    )
     return rc, capsys.readouterr()
 
 
@@ -184,9 +231,11 @@ def test_compare_failed_topology_keeps_the_others(tiny, tmp_path, capsys, monkey
     assert 'optimum:macpherson' not in data['designs']
     assert data['steps']['mixed:macpherson']['success'] is False
     # every design that exists, in every model (the failed topology's model included)
-    assert sorted(data['cells']) == sorted(f'{d}|{m}' for d in ('initial', 'low_optimum',
-                                                                'optimum:double_wishbone')
-                                           for m in data['models'])
+    assert sorted(data['cells']) == sorted(
+        f'{d}|{m}'
+        for d in ('initial', 'low_optimum', 'optimum:double_wishbone')
+        for m in data['models']
+    )
     assert data['best']['mixed:double_wishbone']['best'] == 'optimum:double_wishbone'
     assert data['best']['mixed:macpherson']['f_own'] is None
     table = (tmp_path / 'cmp' / 'table.md').read_text()
@@ -214,14 +263,16 @@ def test_compare_interrupt_keeps_what_finished(tiny, tmp_path, capsys, monkeypat
     assert '**Incomplete:** the study was interrupted' in (out / 'table.md').read_text()
 
 
-@pytest.mark.parametrize('mechanisms, message', [
-    ('double_wishbone,no_such_linkage', 'no_such_linkage'),
-    ('macpherson,macpherson', 'listed twice'),
-    ('macpherson+double_wishbone+macpherson', 'one mechanism, or FRONT+REAR'),
-    ('double_wishbone,', 'comma-separated list'),
-])
-def test_compare_refuses_bad_mechanisms_before_any_work(tmp_path, capsys, mechanisms,
-                                                        message):
+@pytest.mark.parametrize(
+    'mechanisms, message',
+    [
+        ('double_wishbone,no_such_linkage', 'no_such_linkage'),
+        ('macpherson,macpherson', 'listed twice'),
+        ('macpherson+double_wishbone+macpherson', 'one mechanism, or FRONT+REAR'),
+        ('double_wishbone,', 'comma-separated list'),
+    ],
+)
+def test_compare_refuses_bad_mechanisms_before_any_work(tmp_path, capsys, mechanisms, message):
     out = tmp_path / 'cmp'
     assert main(['compare', '--mechanisms', mechanisms, '--out', str(out)]) == 2
     err = capsys.readouterr().err
@@ -231,31 +282,45 @@ def test_compare_refuses_bad_mechanisms_before_any_work(tmp_path, capsys, mechan
 
 def test_topology_labels_and_front_rear_pairs(tmp_path):
     from suspopt.multibody.mechanism import mechanism_path
+
     other = tmp_path / 'macpherson.toml'  # a file with a built-in's stem
     shutil.copyfile(mechanism_path('macpherson'), other)
     tops = compare.parse_topologies(f'macpherson, macpherson+double_wishbone,{other}')
     assert tops[:2] == [('macpherson', 'macpherson'), ('macpherson', 'double_wishbone')]
     assert tops[2] == (str(other), str(other))
-    assert compare.topology_labels(tops) == ['macpherson', 'macpherson+double_wishbone',
-                                             'macpherson-2']
+    assert compare.topology_labels(tops) == [
+        'macpherson',
+        'macpherson+double_wishbone',
+        'macpherson-2',
+    ]
 
 
 def test_compare_full_car_topologies_per_axle(tmp_path, capsys, monkeypatch):
     """The full car (six design variables, anti-roll bars) with a MacPherson front and
     double-wishbone rear against double wishbones all round (stand-in solves)."""
     from suspopt.config_file import default_config_toml
+
     path = tmp_path / 'full.toml'
     text = default_config_toml('full_car')
     assert 'horizon = 5.0 ' in text
     path.write_text(text.replace('horizon = 5.0 ', 'horizon = 0.3 '))  # short: s_k cheap
     _stand_in(monkeypatch)
     out = tmp_path / 'cmp'
-    rc = main(['compare', '--mechanisms', 'macpherson+double_wishbone,double_wishbone',
-               '--config', str(path), '--out', str(out), '--quiet'])
+    rc = main(
+        [
+            'compare',
+            '--mechanisms',
+            'macpherson+double_wishbone,double_wishbone',
+            '--config',
+            str(path),
+            '--out',
+            str(out),
+            '--quiet',
+        ]
+    )
     assert rc == 0, capsys.readouterr().err
     data = read_json(out / 'compare.json')
-    assert data['models'] == ['low', 'mixed:macpherson+double_wishbone',
-                              'mixed:double_wishbone']
+    assert data['models'] == ['low', 'mixed:macpherson+double_wishbone', 'mixed:double_wishbone']
     top = data['topologies'][0]
     assert (top['front'], top['rear']) == ('macpherson', 'double_wishbone')
     assert set(data['kinematics']['curves']) == {'macpherson', 'double_wishbone'}
@@ -274,6 +339,7 @@ def test_full_car_macpherson_front_double_wishbone_rear_verifies():
     from suspopt.config import config_from_dict, full_car_defaults
     from suspopt.study import evaluate, resolve_scales
     from suspopt.transcription.problem import multibody_modules
+
     d = full_car_defaults().to_dict()
     d['vehicle']['front']['mechanism'] = 'macpherson'
     d['vehicle']['rear']['mechanism'] = 'double_wishbone'

@@ -4,6 +4,7 @@ At the all-zero initial state several partials are exactly zero (e.g. dF_S/dk_S)
 inputs here are random and the declared sparsity is also checked against a dense FD
 Jacobian: no true nonzero may lie outside the declared pattern.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,24 +14,34 @@ from openmdao.utils.assert_utils import assert_check_partials
 
 from suspopt.driver.structure import declared_subjacs
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
-from suspopt.models.forces import (AntiRollBarComp, MountMotionComp, SuspensionForceComp,
-                                   TyreForceComp, WheelLoadComp)
+from suspopt.models.forces import (
+    AntiRollBarComp,
+    MountMotionComp,
+    SuspensionForceComp,
+    TyreForceComp,
+    WheelLoadComp,
+)
 from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
-from suspopt.models.objective import (ObjectiveIntegrandComp, ObjectiveQuadratureComp,
-                                      ScenarioObjectiveComp, WeightedObjectiveComp,
-                                      WorstCaseGapComp)
+from suspopt.models.objective import (
+    ObjectiveIntegrandComp,
+    ObjectiveQuadratureComp,
+    ScenarioObjectiveComp,
+    WeightedObjectiveComp,
+    WorstCaseGapComp,
+)
 from suspopt.models.road_input import RoadInputComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
-from suspopt.road import (ISO8608_CLASSES, CosineBumps, ISO8608Road,
-                          SmoothStep, road_tracks)
+from suspopt.road import ISO8608_CLASSES, CosineBumps, ISO8608Road, SmoothStep, road_tracks
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
 
 NN = 7
 FULL = dict(a=np.array([1.3, 1.3, -1.4, -1.4]), y=np.array([0.75, -0.75, 0.74, -0.74]))
 HALF = dict(a=np.array([1.271, -1.713]), y=np.zeros(2))
-SIDES = {'full': dict(side=np.array([1.0, -1.0, 1.0, -1.0]), roll=True, corners=4, **FULL),
-         'half': dict(side=np.zeros(2), roll=False, corners=2, **HALF)}
+SIDES = {
+    'full': dict(side=np.array([1.0, -1.0, 1.0, -1.0]), roll=True, corners=4, **FULL),
+    'half': dict(side=np.zeros(2), roll=False, corners=2, **HALF),
+}
 #: inputs drawn positive (masses, rates, scales, times)
 POSITIVE = ('k_S', 'c_S', 'k_R', 'scales', 'time', 'weights')
 
@@ -40,11 +51,13 @@ def _random_problem(comp: om.ExplicitComponent, seed: int = 0) -> om.Problem:
     p.model.add_subsystem('comp', comp)
     p.setup(force_alloc_complex=True)
     rng = np.random.default_rng(seed)
-    for name, meta in comp.list_inputs(out_stream=None, prom_name=False, shape=True,
-                                       return_format='dict').items():
+    for name, meta in comp.list_inputs(
+        out_stream=None, prom_name=False, shape=True, return_format='dict'
+    ).items():
         shape = meta['shape']
-        sign = 1.0 if name in POSITIVE or name.startswith(('k_', 'c_')) \
-            else rng.choice([-1, 1], shape)
+        sign = (
+            1.0 if name in POSITIVE or name.startswith(('k_', 'c_')) else rng.choice([-1, 1], shape)
+        )
         p.set_val(f'comp.{name}', rng.uniform(0.5, 2.0, shape) * sign)
     p.run_model()
     return p
@@ -54,51 +67,68 @@ COMPONENTS = {
     'mount_motion_half': lambda: MountMotionComp(num_nodes=NN, corners=2, **HALF),
     'mount_motion_full': lambda: MountMotionComp(num_nodes=NN, corners=4, roll=True, **FULL),
     'suspension_force': lambda: SuspensionForceComp(num_nodes=NN, corners=4),
-    'anti_roll_bar': lambda: AntiRollBarComp(num_nodes=NN, corners=4, left=(0, 2),
-                                             right=(1, 3), track=(1.5, 1.48)),
-    'tyre_force': lambda: TyreForceComp(num_nodes=NN, corners=4,
-                                        k_T=np.array([2e5, 2e5, 3e5, 3e5])),
+    'anti_roll_bar': lambda: AntiRollBarComp(
+        num_nodes=NN, corners=4, left=(0, 2), right=(1, 3), track=(1.5, 1.48)
+    ),
+    'tyre_force': lambda: TyreForceComp(
+        num_nodes=NN, corners=4, k_T=np.array([2e5, 2e5, 3e5, 3e5])
+    ),
     'wheel_load': lambda: WheelLoadComp(num_nodes=NN, corners=4),
-    'chassis_heave': lambda: ChassisHeaveComp(num_nodes=NN, corners=4, M=1442.0,
-                                              forces=('F_S', 'F_R')),
+    'chassis_heave': lambda: ChassisHeaveComp(
+        num_nodes=NN, corners=4, M=1442.0, forces=('F_S', 'F_R')
+    ),
     'chassis_pitch': lambda: ChassisPitchComp(num_nodes=NN, corners=2, a=HALF['a'], I=2782.0),
-    'chassis_roll': lambda: ChassisRollComp(num_nodes=NN, corners=4, y=FULL['y'], I_x=572.0,
-                                            forces=('F_S', 'F_R')),
-    'wheel_dynamics': lambda: WheelDynamicsComp(num_nodes=NN, corners=4,
-                                                m=np.array([60.0, 60.0, 75.0, 75.0]),
-                                                forces=('F_S', 'F_R')),
+    'chassis_roll': lambda: ChassisRollComp(
+        num_nodes=NN, corners=4, y=FULL['y'], I_x=572.0, forces=('F_S', 'F_R')
+    ),
+    'wheel_dynamics': lambda: WheelDynamicsComp(
+        num_nodes=NN, corners=4, m=np.array([60.0, 60.0, 75.0, 75.0]), forces=('F_S', 'F_R')
+    ),
     'settings_axle': lambda: SuspensionSettingsComp(
-        design=('k_S1', 'k_S2', 'c_S1', 'c_S2', 'k_R1'), labels=('1L', '1R', '2L', '2R')),
+        design=('k_S1', 'k_S2', 'c_S1', 'c_S2', 'k_R1'), labels=('1L', '1R', '2L', '2R')
+    ),
     'settings_corner': lambda: SuspensionSettingsComp(
         design=('k_S1L', 'k_S1R', 'k_S2L', 'k_S2R', 'c_S1L', 'c_S1R', 'c_S2L', 'c_S2R'),
-        labels=('1L', '1R', '2L', '2R')),
+        labels=('1L', '1R', '2L', '2R'),
+    ),
     'objective_integrand_half': lambda: ObjectiveIntegrandComp(num_nodes=NN, corners=2),
-    'objective_integrand_full': lambda: ObjectiveIntegrandComp(num_nodes=NN, corners=4,
-                                                               roll=True),
+    'objective_integrand_full': lambda: ObjectiveIntegrandComp(num_nodes=NN, corners=4, roll=True),
     'weighted_objective': lambda: WeightedObjectiveComp(terms=7),
     'objective_quadrature': lambda: ObjectiveQuadratureComp(
-        weights=radau_quadrature_weights(2, 3, 5.0), terms=4),
+        weights=radau_quadrature_weights(2, 3, 5.0), terms=4
+    ),
     'scenario_objective': lambda: ScenarioObjectiveComp(weights=(1.0, 0.5, 2.0)),
     'worst_case_gap': lambda: WorstCaseGapComp(n=3),
-    'mount_rotation': lambda: MountRotationComp(num_nodes=NN, corners=4,
-                                                side=SIDES['full']['side']),
+    'mount_rotation': lambda: MountRotationComp(
+        num_nodes=NN, corners=4, side=SIDES['full']['side']
+    ),
     # small masses: the couplings through the mount (e.g. pitch from a roll moment) are then
     # of order one, well above the exact-sparsity check's threshold
-    'chassis_mount_half': lambda: ChassisMountComp(num_nodes=NN, width=8, M=14.0, I=27.0,
-                                                   **SIDES['half']),
-    'chassis_mount_full': lambda: ChassisMountComp(num_nodes=NN, width=8, M=14.0, I=24.0,
-                                                   I_x=5.7, forces=('F_R',),
-                                                   **SIDES['full']),
+    'chassis_mount_half': lambda: ChassisMountComp(
+        num_nodes=NN, width=8, M=14.0, I=27.0, **SIDES['half']
+    ),
+    'chassis_mount_full': lambda: ChassisMountComp(
+        num_nodes=NN, width=8, M=14.0, I=24.0, I_x=5.7, forces=('F_R',), **SIDES['full']
+    ),
     'mount_response_half': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['half']),
     'mount_response_full': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['full']),
-    'road_two_bumps': lambda: RoadInputComp(num_nodes=NN, tracks=(CosineBumps(),),
-                                            speed=10.0, offsets=(0.0, 2.984), track_of=(0, 0)),
-    'road_step': lambda: RoadInputComp(num_nodes=NN, tracks=(SmoothStep(position=5.0,
-                                                                        ramp_length=20.0),),
-                                       speed=10.0, offsets=(0.0, 2.984), track_of=(0, 0)),
+    'road_two_bumps': lambda: RoadInputComp(
+        num_nodes=NN, tracks=(CosineBumps(),), speed=10.0, offsets=(0.0, 2.984), track_of=(0, 0)
+    ),
+    'road_step': lambda: RoadInputComp(
+        num_nodes=NN,
+        tracks=(SmoothStep(position=5.0, ramp_length=20.0),),
+        speed=10.0,
+        offsets=(0.0, 2.984),
+        track_of=(0, 0),
+    ),
     'road_iso8608_two_tracks': lambda: RoadInputComp(
-        num_nodes=NN, tracks=road_tracks({'profile': 'iso8608', 'fade_in': 1.0}, 2, 1.5),
-        speed=10.0, offsets=(0.0, 0.0, 2.8, 2.8), track_of=(0, 1, 0, 1)),
+        num_nodes=NN,
+        tracks=road_tracks({'profile': 'iso8608', 'fade_in': 1.0}, 2, 1.5),
+        speed=10.0,
+        offsets=(0.0, 0.0, 2.8, 2.8),
+        track_of=(0, 1, 0, 1),
+    ),
 }
 
 
@@ -116,16 +146,16 @@ def test_check_partials(name):
     _place_on_road(p, name)
     if name.startswith('road'):
         # road profiles are real-valued (clip/where): central differences, error ~ 1e-9
-        data = p.check_partials(method='fd', form='central', step=1e-7, out_stream=None,
-                                compact_print=True)
+        data = p.check_partials(
+            method='fd', form='central', step=1e-7, out_stream=None, compact_print=True
+        )
         assert_check_partials(data, atol=1e-6, rtol=1e-6)
     else:
         data = p.check_partials(method='cs', out_stream=None, compact_print=True)
         assert_check_partials(data, atol=1e-10, rtol=1e-10)
 
 
-def sparsity_mismatches(comp: om.ExplicitComponent, seed: int = 3,
-                        exact: bool = True) -> list[str]:
+def sparsity_mismatches(comp: om.ExplicitComponent, seed: int = 3, exact: bool = True) -> list[str]:
     """The component's true Jacobian pattern against its declared one.
 
     The true pattern comes from differences of ``compute`` itself, one input entry at a
@@ -136,10 +166,14 @@ def sparsity_mismatches(comp: om.ExplicitComponent, seed: int = 3,
     with ``exact=False`` only undeclared true nonzeros count (a road is flat in places, so
     some structural nonzeros of its input are zero at a given time)."""
     p = _random_problem(comp, seed)
-    ins = {k: np.array(p.get_val(f'comp.{k}'), dtype=float)
-           for k in comp.list_inputs(out_stream=None, prom_name=False, return_format='dict')}
-    outs = {k: np.array(p.get_val(f'comp.{k}'))
-            for k in comp.list_outputs(out_stream=None, prom_name=False, return_format='dict')}
+    ins = {
+        k: np.array(p.get_val(f'comp.{k}'), dtype=float)
+        for k in comp.list_inputs(out_stream=None, prom_name=False, return_format='dict')
+    }
+    outs = {
+        k: np.array(p.get_val(f'comp.{k}'))
+        for k in comp.list_outputs(out_stream=None, prom_name=False, return_format='dict')
+    }
     if 'time' in ins:
         ins['time'] = np.linspace(0.52, 0.68, ins['time'].size)
 
@@ -149,8 +183,9 @@ def sparsity_mismatches(comp: om.ExplicitComponent, seed: int = 3,
         return o
 
     base = run(ins)
-    declared = {(sj.of.split('.', 1)[1], sj.wrt.split('.', 1)[1]): sj
-                for sj in declared_subjacs(comp)}
+    declared = {
+        (sj.of.split('.', 1)[1], sj.wrt.split('.', 1)[1]): sj for sj in declared_subjacs(comp)
+    }
     problems = []
     for wrt, x in ins.items():
         cols = []
@@ -162,15 +197,18 @@ def sparsity_mismatches(comp: om.ExplicitComponent, seed: int = 3,
             cols.append({k: (out[k] - base[k]).ravel() / h for k in outs})
         for of in outs:
             true = np.abs(np.stack([c[of] for c in cols], axis=1)) > 1e-9 * max(
-                1.0, max(np.max(np.abs(c[of])) for c in cols))
+                1.0, max(np.max(np.abs(c[of])) for c in cols)
+            )
             decl = np.zeros_like(true)
             sj = declared.get((of, wrt))
             if sj is not None:
                 decl[sj.rows, sj.cols] = True
             missing, extra = int((true & ~decl).sum()), int((decl & ~true).sum())
             if missing or (exact and extra):
-                problems.append(f'd{of}/d{wrt}: {missing} true nonzeros not declared, '
-                                f'{extra} declared entries that are zero')
+                problems.append(
+                    f'd{of}/d{wrt}: {missing} true nonzeros not declared, '
+                    f'{extra} declared entries that are zero'
+                )
     return problems
 
 
@@ -192,8 +230,9 @@ def test_sparsity_check_fails_on_a_component_missing_a_nonzero():
         def _setting_partials(self, of, wrt):
             nn, nc = self._shape
             if wrt == 'k_S':
-                self.declare_partials(of, wrt, rows=np.arange(0, nn * nc, nc),
-                                      cols=np.zeros(nn, dtype=int))
+                self.declare_partials(
+                    of, wrt, rows=np.arange(0, nn * nc, nc), cols=np.zeros(nn, dtype=int)
+                )
             else:
                 super()._setting_partials(of, wrt)
 
@@ -225,8 +264,10 @@ def test_sparsity_check_fails_on_a_component_missing_a_nonzero():
             partials['F_S', 'k_S'] = (inputs['z_W'] - inputs['z_M']).ravel()
             partials['F_S', 'c_S'] = (inputs['v_W'] - inputs['v_M']).ravel()
 
-    assert any('dF_S/dv_M' in m and 'not declared' in m
-               for m in sparsity_mismatches(Forgetful(num_nodes=NN, corners=4)))
+    assert any(
+        'dF_S/dv_M' in m and 'not declared' in m
+        for m in sparsity_mismatches(Forgetful(num_nodes=NN, corners=4))
+    )
 
 
 def test_road_profiles_match_formula():
@@ -236,6 +277,7 @@ def test_road_profiles_match_formula():
     expected = np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.05, 0.0])
     np.testing.assert_allclose(road.r(s), expected, atol=1e-15)
     from suspopt.road import wheel_road_inputs
+
     h, _ = wheel_road_inputs(road, np.array([0.6, 0.6 + 2.984 / 10.0]), 10.0, (0.0, 2.984))
     np.testing.assert_allclose(h[0, 0], 0.05)
     np.testing.assert_allclose(h[1, 1], 0.05)
@@ -262,10 +304,12 @@ def test_radau_quadrature_is_exact_for_polynomials(segments, order):
     with ``order`` points), on the node times of Dymos' own compressed Radau grid, and
     suspopt's nodes are Dymos' nodes."""
     from dymos.transcriptions.grid_data import GridData
+
     T = 5.0
     w = radau_quadrature_weights(segments, order, T)
-    gd = GridData(num_segments=segments, transcription='radau-ps', transcription_order=order,
-                  compressed=True)
+    gd = GridData(
+        num_segments=segments, transcription='radau-ps', transcription_order=order, compressed=True
+    )
     t = 0.5 * (gd.node_ptau + 1.0) * T
     assert w.shape == t.shape and np.all(w >= 0.0)
     np.testing.assert_allclose(radau_grid(segments, order)[0], gd.node_ptau, atol=1e-14)
@@ -302,8 +346,10 @@ def test_quadrature_equals_a_dymos_integrated_state():
 
     segments, order, T = 7, 5, 5.0
     p = om.Problem(reports=False)
-    phase = dm.Phase(ode_class=Integrand,
-                     transcription=dm.Radau(num_segments=segments, order=order, compressed=True))
+    phase = dm.Phase(
+        ode_class=Integrand,
+        transcription=dm.Radau(num_segments=segments, order=order, compressed=True),
+    )
     phase.set_time_options(fix_initial=True, fix_duration=True, targets=['time'], units='s')
     phase.add_state('x', rate_source='g', fix_initial=True, solve_segments='forward')
     phase.add_timeseries_output('g')

@@ -1,4 +1,5 @@
 """Study-file validation (issue 6): every bad input gives one line naming the key, exit 2."""
+
 from __future__ import annotations
 
 import math
@@ -28,15 +29,12 @@ def test_defaults_reproduce_spec():
     assert (v.chassis_mass, v.chassis_pitch_inertia) == (1414.0, 2782.0)
     assert (v.front.wheel_mass, v.front.tyre_stiffness) == (120.0, 200000.0)
     assert math.isclose(v.wheelbase, 2.984)
-    assert c.design.initial() == {'k_S1': 30000.0, 'k_S2': 30000.0, 'c_S1': 3000.0,
-                                  'c_S2': 3000.0}
+    assert c.design.initial() == {'k_S1': 30000.0, 'k_S2': 30000.0, 'c_S1': 3000.0, 'c_S2': 3000.0}
     assert c.design.bounds()['k_S2'] == (10000.0, 50000.0)
     assert c.design.bounds()['c_S1'] == (1000.0, 5000.0)
     assert (c.maneuver.speed, c.maneuver.horizon) == (10.0, 5.0)
-    assert c.road == {'profile': 'two_bumps', 'height': 0.05, 'length': 2.0,
-                      'starts': [5.0, 10.0]}
-    assert c.objective.weights == {'heave': 0.25, 'pitch': 0.25, 'wheel_1': 0.25,
-                                   'wheel_2': 0.25}
+    assert c.road == {'profile': 'two_bumps', 'height': 0.05, 'length': 2.0, 'starts': [5.0, 10.0]}
+    assert c.objective.weights == {'heave': 0.25, 'pitch': 0.25, 'wheel_1': 0.25, 'wheel_2': 0.25}
     assert c.objective.normalization == 'reference'
     assert c.transcription.order == 5
 
@@ -64,9 +62,12 @@ BAD_INPUTS = [
     ('[design.k_S1]\nlower = 60000.0', 'design.k_S1.lower', 'above upper bound'),
     ('[design.c_S2]\ninitial = 9000.0', 'design.c_S2.initial', 'outside the bounds'),
     ('[design.k_S2]\nlower = -5.0', 'design.k_S2.lower', 'must be > 0'),
-    ('[design.k_S3]\ninitial = 1.0', 'design.k_S3', "unknown key"),
-    ('[objective]\nnormalization = "refrence"', 'objective.normalization',
-     "did you mean 'reference'"),
+    ('[design.k_S3]\ninitial = 1.0', 'design.k_S3', 'unknown key'),
+    (
+        '[objective]\nnormalization = "refrence"',
+        'objective.normalization',
+        "did you mean 'reference'",
+    ),
     ('[objective]\nweights = [1.0, 1.0]', 'objective.weights', 'needs 4 values'),
     ('[transcription]\nsegments = 0', 'transcription.segments', 'must be > 0'),
     ('[transcription]\nsegments = 12.5', 'transcription.segments', 'must be an integer'),
@@ -76,21 +77,32 @@ BAD_INPUTS = [
     ('[road]\nprofile = "bump"\nhieght = 0.1', 'road.hieght', "did you mean 'height'"),
     ('[road]\nprofile = "csv"', 'road.file', 'missing value'),
     ('[road]\nprofile = "csv"\nfile = "no_such_road.csv"', 'road.file', 'cannot read'),
-    ('[vehicle.front]\nmechanism = "no_such_mechanism.toml"', 'vehicle.front.mechanism',
-     'not found'),
+    (
+        '[vehicle.front]\nmechanism = "no_such_mechanism.toml"',
+        'vehicle.front.mechanism',
+        'not found',
+    ),
     ('[multibody]\nfd_form = "backward"', 'multibody.fd_form', "'forward' or 'central'"),
     ('speling = 1', 'speling', 'unknown key'),
     ('[transcription]\norder = 1', 'transcription.order', 'must be >= 2'),
-    ('[transcription]\ninitial_guess = "warm"', 'transcription.initial_guess',
-     "'auto', 'simulate' or 'zero'"),
+    (
+        '[transcription]\ninitial_guess = "warm"',
+        'transcription.initial_guess',
+        "'auto', 'simulate' or 'zero'",
+    ),
     ('[optimizer]\nprint_level = 99', 'optimizer.print_level', 'must be 0..12'),
     ('[optimizer]\nmax_iter = 0', 'optimizer.max_iter', 'must be > 0'),
-    ('[optimizer.options]\nno_such_option = 3', 'optimizer.options.no_such_option',
-     'not a valid option'),
-    ('[optimizer.options]\nmu_strategy = "bogus"', 'optimizer.options.mu_strategy',
-     'valid: monotone, adaptive'),
-    ('[optimizer.options]\nmax_cpu_time = -1.0', 'optimizer.options.max_cpu_time',
-     'range: 0 <'),
+    (
+        '[optimizer.options]\nno_such_option = 3',
+        'optimizer.options.no_such_option',
+        'not a valid option',
+    ),
+    (
+        '[optimizer.options]\nmu_strategy = "bogus"',
+        'optimizer.options.mu_strategy',
+        'valid: monotone, adaptive',
+    ),
+    ('[optimizer.options]\nmax_cpu_time = -1.0', 'optimizer.options.max_cpu_time', 'range: 0 <'),
 ]
 
 
@@ -108,12 +120,15 @@ def test_bad_input_names_the_key_and_exits_2(tmp_path, capsys, snippet, key, wor
     assert all(line.startswith('suspopt: error: ') for line in stderr.strip().splitlines())
 
 
-@pytest.mark.parametrize('rows,words', [
-    ('0,0\n2,0\n1,0\n3,0\n80,0\n', 'strictly increasing'),
-    ('0,0\n1,0\n2,0\n3,0\n', 'covers s = 0..3 m but the drive needs 0..50'),
-    ('0,0\n1,x\n2,0\n3,0\n60,0\n', 'row 2 is not two numbers'),
-    ('0,0\n', 'at least 4'),
-])
+@pytest.mark.parametrize(
+    'rows,words',
+    [
+        ('0,0\n2,0\n1,0\n3,0\n80,0\n', 'strictly increasing'),
+        ('0,0\n1,0\n2,0\n3,0\n', 'covers s = 0..3 m but the drive needs 0..50'),
+        ('0,0\n1,x\n2,0\n3,0\n60,0\n', 'row 2 is not two numbers'),
+        ('0,0\n', 'at least 4'),
+    ],
+)
 def test_bad_road_csv(tmp_path, capsys, rows, words):
     _write(tmp_path, rows, 'road.csv')
     path = _write(tmp_path, '[road]\nprofile = "csv"\nfile = "road.csv"')
@@ -140,8 +155,18 @@ def test_unreadable_and_invalid_files(tmp_path, capsys):
         load_config(_write(tmp_path, '[vehicle\nchassis_mass = 1'))
     assert main(['study', '--config', str(tmp_path / 'missing.toml')]) == 2
     assert 'config file not found' in capsys.readouterr().err
-    assert main(['evaluate', '--fidelity', 'low', '--config',
-                 str(_write(tmp_path, '[vehicle\nchassis_mass = 1'))]) == 2
+    assert (
+        main(
+            [
+                'evaluate',
+                '--fidelity',
+                'low',
+                '--config',
+                str(_write(tmp_path, '[vehicle\nchassis_mass = 1')),
+            ]
+        )
+        == 2
+    )
     assert 'not valid TOML' in capsys.readouterr().err
     binary = tmp_path / 'binary.toml'
     binary.write_bytes(b'\xff\xfe[vehicle]\x00')
@@ -156,10 +181,13 @@ def test_unreadable_and_invalid_files(tmp_path, capsys):
 def test_bad_mechanism_file(tmp_path):
     mech = tmp_path / 'mech.toml'
     from suspopt.multibody.mechanism import mechanism_path
+
     text = mechanism_path('double_wishbone').read_text()
-    mech.write_text(text.replace('bodies = ["W", "U"]', 'bodies = ["W", "UU"]')
-                    .replace('mass = 20.0', 'mass = -20.0', 1)
-                    .replace('inertia = 0.15', 'inertia = 0.0', 1))
+    mech.write_text(
+        text.replace('bodies = ["W", "U"]', 'bodies = ["W", "UU"]')
+        .replace('mass = 20.0', 'mass = -20.0', 1)
+        .replace('inertia = 0.15', 'inertia = 0.0', 1)
+    )
     path = _write(tmp_path, f'[vehicle.front]\nmechanism = "{mech.name}"')
     with pytest.raises(ConfigError) as err:
         load_config(path)
@@ -173,6 +201,7 @@ def test_a_mechanism_file_edited_between_loads_is_checked_anew(tmp_path):
     """The mechanism checks are remembered by the file's content (a sweep validates one
     mechanism per task), never by its name alone."""
     from suspopt.multibody.mechanism import mechanism_path
+
     text = mechanism_path('double_wishbone').read_text()
     mech = tmp_path / 'mech.toml'
     mech.write_text(text)
@@ -190,7 +219,7 @@ def test_bad_command_line_values(capsys):
     assert main(['evaluate', '--fidelity', 'low', '--design', '1,2,3']) == 2
     assert '--design' in capsys.readouterr().err
     assert main(['evaluate', '--fidelity', 'low', '--design', 'nan,3e4,3e3,3e3']) == 2
-    assert "--design: design values must be finite and >= 0" in capsys.readouterr().err
+    assert '--design: design values must be finite and >= 0' in capsys.readouterr().err
     assert main(['evaluate', '--fidelity', 'low', '--design', '3e4,3e4,-1,3e3']) == 2
     assert 'c_S1 = -1' in capsys.readouterr().err
     assert main(['optimize', '--fidelity', 'low', '--start', '1e4,1e4,1e3']) == 2
@@ -203,10 +232,12 @@ def test_bad_command_line_values(capsys):
 def test_csv_road_reproduces_two_bumps(tmp_path):
     """A measured-road CSV sampled from the built-in two bumps gives the same objective."""
     from suspopt.study import evaluate
+
     road = StudyConfig().road_profile()
     s = np.linspace(0.0, 60.0, 60001)
-    (tmp_path / 'road.csv').write_text('distance_m,height_m\n' + '\n'.join(
-        f'{a:.6f},{b:.17g}' for a, b in zip(s, road.r(s))))
+    (tmp_path / 'road.csv').write_text(
+        'distance_m,height_m\n' + '\n'.join(f'{a:.6f},{b:.17g}' for a, b in zip(s, road.r(s)))
+    )
     cfg = load_config(_write(tmp_path, '[road]\nprofile = "csv"\nfile = "road.csv"'))
     base = StudyConfig()
     design = base.design.initial()
@@ -223,17 +254,26 @@ def test_a_bad_study_file_is_refused_before_the_heavy_imports(tmp_path):
     imports a component or the driver, or a command imports its work first)."""
     bad = tmp_path / 'bad.toml'
     bad.write_text('[vehicle]\nchassis_mass = -3\n')
-    commands = [['optimize', '--fidelity', 'low'], ['evaluate', '--fidelity', 'low'],
-                ['study'], ['coupling'], ['pareto', '--fidelity', 'low'], ['compare'],
-                ['robust', '--fidelity', 'low']]
-    script = ('import sys\nfrom suspopt.cli import main\n'
-              "heavy = ('openmdao.api', 'openmdao.core', 'dymos', 'cyipopt', 'matplotlib', "
-              "'distributed')\n"
-              f'for cmd in {commands!r}:\n'
-              f"    code = main(cmd + ['--config', {str(bad)!r}])\n"
-              "    print(cmd[0], code, *[m for m in heavy if m in sys.modules])\n")
-    out = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
-                         timeout=120)
+    commands = [
+        ['optimize', '--fidelity', 'low'],
+        ['evaluate', '--fidelity', 'low'],
+        ['study'],
+        ['coupling'],
+        ['pareto', '--fidelity', 'low'],
+        ['compare'],
+        ['robust', '--fidelity', 'low'],
+    ]
+    script = (
+        'import sys\nfrom suspopt.cli import main\n'
+        "heavy = ('openmdao.api', 'openmdao.core', 'dymos', 'cyipopt', 'matplotlib', "
+        "'distributed')\n"
+        f'for cmd in {commands!r}:\n'
+        f"    code = main(cmd + ['--config', {str(bad)!r}])\n"
+        '    print(cmd[0], code, *[m for m in heavy if m in sys.modules])\n'
+    )
+    out = subprocess.run(
+        [sys.executable, '-c', script], capture_output=True, text=True, timeout=120
+    )
     lines = out.stdout.split('\n')[:-1]
     assert lines == [f'{c[0]} 2' for c in commands], out.stdout + out.stderr
     assert out.stderr.count('vehicle.chassis_mass') == len(commands)

@@ -1,4 +1,5 @@
 """IpoptDriver on small problems with known answers (independent of Dymos)."""
+
 from __future__ import annotations
 
 import json
@@ -25,7 +26,7 @@ class Paraboloid(om.ExplicitComponent):
 
     def compute(self, inputs, outputs):
         x, y = inputs['x'][0], inputs['y'][0]
-        outputs['f'] = (x - 3.0)**2 + x * y + (y + 4.0)**2 - 3.0
+        outputs['f'] = (x - 3.0) ** 2 + x * y + (y + 4.0) ** 2 - 3.0
         if x > self.options['nan_above']:
             outputs['f'] = np.nan
         outputs['g'] = x + y
@@ -61,8 +62,7 @@ def test_unconstrained_minimum():
     p = _problem()
     assert p.run()
     assert p.ipopt.status == 0
-    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [20 / 3, -22 / 3],
-                               rtol=1e-6)
+    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [20 / 3, -22 / 3], rtol=1e-6)
     np.testing.assert_allclose(p.get_val('f')[0], -82 / 3, rtol=1e-8)
 
 
@@ -73,8 +73,7 @@ def test_two_sided_constraint_and_progress():
     p = _problem(con={'equals': 1.0}, progress=seen.append)
     p.run()
     assert p.ipopt.status == 0
-    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [7.5, -6.5],
-                               rtol=1e-6)
+    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [7.5, -6.5], rtol=1e-6)
     assert seen and seen[-1].constraint_violation < 1e-8
     assert [s.iteration for s in seen] == list(range(len(seen)))
     p2 = _problem(con={'lower': -15.0, 'upper': 0.0})
@@ -113,6 +112,7 @@ def test_pinned_variable_is_held():
 def test_write_json_is_atomic(tmp_path):
     """A failure while writing leaves the previous file intact and no temporary files."""
     from suspopt.results import write_json
+
     path = tmp_path / 'result.json'
     write_json(path, {'a': 1})
     with pytest.raises(TypeError):
@@ -121,16 +121,22 @@ def test_write_json_is_atomic(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ['result.json']
 
 
-@pytest.mark.parametrize('given, used', [({}, 'extended'),
-                                         ({'limited_memory_aug_solver': 'sherman-morrison'},
-                                          'sherman-morrison')])
-def test_limited_memory_update_in_the_augmented_system_unless_the_study_says(tmp_path, given,
-                                                                           used):
+@pytest.mark.parametrize(
+    'given, used',
+    [({}, 'extended'), ({'limited_memory_aug_solver': 'sherman-morrison'}, 'sherman-morrison')],
+)
+def test_limited_memory_update_in_the_augmented_system_unless_the_study_says(tmp_path, given, used):
     """IPOPT runs with the driver's ``limited_memory_aug_solver = extended`` (read back
     from IPOPT's own list of the options it was given); a study's option overrides it."""
     log = tmp_path / 'ipopt.out'
-    p = _problem(opt_settings={'output_file': str(log), 'file_print_level': 5,
-                               'print_user_options': 'yes', **given})
+    p = _problem(
+        opt_settings={
+            'output_file': str(log),
+            'file_print_level': 5,
+            'print_user_options': 'yes',
+            **given,
+        }
+    )
     assert p.run()
     lines = [ln.split() for ln in log.read_text().splitlines()]
     assert ['limited_memory_aug_solver', '=', used] in [ln[:3] for ln in lines]

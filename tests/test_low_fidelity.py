@@ -1,18 +1,18 @@
 """Low-fidelity optimization end to end (issue 2): collocation vs time marching, the true
 sparsity away from the start, and the optimum checked by an independent route."""
+
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
 import pytest
+from half_car_by_hand import objective_terms_by_hand  # noqa: E402 (tests/ is on the path)
 from scipy.optimize import minimize
 
-from suspopt.transcription.problem import VehicleProblem
 from suspopt.study import evaluate, optimize
 from suspopt.timemarching import simulate
-
-from half_car_by_hand import objective_terms_by_hand  # noqa: E402 (tests/ is on the path)
+from suspopt.transcription.problem import VehicleProblem
 
 pytestmark = pytest.mark.slow
 
@@ -76,14 +76,19 @@ def test_total_sparsity_holds_away_from_start(cfg, scales):
         rng = np.random.default_rng(1)
         for v in lay.design_vars:
             val = p.get_val(v.name)
-            p.set_val(v.name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01)
-                      * 0.5)
+            p.set_val(
+                v.name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01) * 0.5
+            )
         p.run_model()
         x = drv.scaled_design()
         grad, jac = drv.gradient(x), drv.jacobian(x)  # driver-scaled, at IPOPT's structure
-        Jd = p.compute_totals(of=[lay.objective.name] + [c.name for c in lay.constraints],
-                              wrt=[v.name for v in lay.design_vars], return_format='array',
-                              coloring_info=False, driver_scaling=True)
+        Jd = p.compute_totals(
+            of=[lay.objective.name] + [c.name for c in lay.constraints],
+            wrt=[v.name for v in lay.design_vars],
+            return_format='array',
+            coloring_info=False,
+            driver_scaling=True,
+        )
     np.testing.assert_allclose(grad, Jd[0], rtol=1e-9, atol=1e-12)
     Jd = Jd[1:]  # the constraints
     pattern = np.zeros(Jd.shape, dtype=bool)
@@ -112,8 +117,13 @@ def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_opt
     u_star = (np.array([low_optimum['design'][n] for n in names]) - lo) / (hi - lo)
     # start a fair distance from the collocation optimum, halfway from the box centre
     u0 = 0.5 * (u_star + 0.5)
-    res = minimize(f, u0, method='L-BFGS-B', bounds=[(0, 1)] * 4,
-                   options={'eps': 1e-6, 'ftol': 1e-12, 'gtol': 1e-8, 'maxiter': 60})
+    res = minimize(
+        f,
+        u0,
+        method='L-BFGS-B',
+        bounds=[(0, 1)] * 4,
+        options={'eps': 1e-6, 'ftol': 1e-12, 'gtol': 1e-8, 'maxiter': 60},
+    )
     print(f'\nL-BFGS-B: {res.nit} iterations, {res.nfev} evaluations, {res.message}')
     x_scipy = lo + res.x * (hi - lo)
     x_ipopt = np.array([low_optimum['design'][n] for n in names])
@@ -133,18 +143,19 @@ def test_iteration_limited_run_reports_failure(cfg, scales, tmp_path):
     assert res['status'] == 'Maximum_Iterations_Exceeded'
     assert res['iterations'] == 2
     import json
+
     saved = json.loads((tmp_path / 'result.json').read_text())
     assert saved['success'] is False and (tmp_path / 'cases.sql').exists()
 
 
-def test_zero_start_with_fresh_coloring_reaches_same_optimum(cfg, scales, low_optimum,
-                                                             tmp_path, monkeypatch):
+def test_zero_start_with_fresh_coloring_reaches_same_optimum(
+    cfg, scales, low_optimum, tmp_path, monkeypatch
+):
     """The FINDINGS pitfall: at all-zero states dF_S/dk = 0. With the coloring computed
     right there (empty cache) and zero states, IPOPT must still reach the same optimum
     and the initial state must stay the zero state of SPEC §1."""
     monkeypatch.setenv('SUSPOPT_CACHE_DIR', str(tmp_path))
-    zero = cfg.replace(transcription=dataclasses.replace(cfg.transcription,
-                                                         initial_guess='zero'))
+    zero = cfg.replace(transcription=dataclasses.replace(cfg.transcription, initial_guess='zero'))
     with VehicleProblem(zero, 'low', scales) as vp:
         assert not vp.coloring_from_cache
         res = vp.solve()
@@ -174,8 +185,11 @@ def test_driver_sparse_jacobian_equals_openmdao_totals(cfg, scales):
         grad, jac = drv.gradient(x), drv.jacobian(x)
         J = vp.problem.compute_totals(
             of=[lay.objective.name] + [c.name for c in lay.constraints],
-            wrt=[v.name for v in lay.design_vars], return_format='array',
-            coloring_info=False, driver_scaling=True)
+            wrt=[v.name for v in lay.design_vars],
+            return_format='array',
+            coloring_info=False,
+            driver_scaling=True,
+        )
         rows, cols = drv.jacobianstructure()
     assert res.success
     np.testing.assert_allclose(jac, J[1 + rows, cols], rtol=1e-12, atol=1e-14)

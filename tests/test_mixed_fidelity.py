@@ -1,4 +1,5 @@
 """Mixed-fidelity model (issue 4): half-car chassis + two black-box multibody modules."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -6,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from suspopt.transcription.problem import VehicleProblem
 from suspopt.study import evaluate, objective_value, optimize
 from suspopt.timemarching import simulate
+from suspopt.transcription.problem import VehicleProblem
 
 pytestmark = pytest.mark.slow
 
@@ -45,8 +46,9 @@ def test_collocation_matches_time_marching(cfg, scales, low_design, mixed_proble
 def test_mixed_optimum_improves_in_the_mixed_model(cfg, scales, low_design, mixed_optimum):
     assert mixed_optimum['success']
     at_low = evaluate(cfg, 'mixed', low_design, scales=scales, method='time-marching')
-    at_mixed = evaluate(cfg, 'mixed', mixed_optimum['design'], scales=scales,
-                        method='time-marching')
+    at_mixed = evaluate(
+        cfg, 'mixed', mixed_optimum['design'], scales=scales, method='time-marching'
+    )
     assert at_mixed['objective'] < at_low['objective']
     assert abs(at_mixed['objective'] / mixed_optimum['objective'] - 1.0) < 5e-3
     calls = mixed_optimum['multibody_calls']  # the black box really ran
@@ -71,8 +73,9 @@ def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_opti
     hi = np.array([cfg.design[n].upper for n in names])
 
     def f(x):
-        tr = simulate(cfg, 'mixed', dict(zip(names, x)), t_eval=np.array([0.0, 5.0]),
-                      rtol=1e-6, atol=1e-9)
+        tr = simulate(
+            cfg, 'mixed', dict(zip(names, x)), t_eval=np.array([0.0, 5.0]), rtol=1e-6, atol=1e-9
+        )
         return objective_value(cfg, dict(zip(cfg.terms(), tr.J)), scales[0])
 
     x = np.array([mixed_optimum['design'][n] for n in names])
@@ -99,8 +102,7 @@ def _reduced_gradient(vp: VehicleProblem) -> np.ndarray:
     lay = vp.driver.layout()
     of = [lay.objective.name] + [c.name for c in lay.constraints]
     wrt = [v.name for v in lay.design_vars]
-    J = vp.problem.compute_totals(of=of, wrt=wrt, return_format='array',
-                                  driver_scaling=False)
+    J = vp.problem.compute_totals(of=of, wrt=wrt, return_format='array', driver_scaling=False)
     cols, start = {}, 0
     for v in lay.design_vars:
         cols[v.name] = np.arange(start, start + v.size)
@@ -120,8 +122,8 @@ def test_total_derivatives_match_fd_of_converged_model(cfg, scales):
     x0 = {'k_S1': 32000.0, 'k_S2': 21000.0, 'c_S1': 2600.0, 'c_S2': 2200.0}
     base = cfg.replace(
         transcription=dataclasses.replace(cfg.transcription, segments=30),
-        optimizer=dataclasses.replace(cfg.optimizer, tol=1e-13,
-                                      options={'constr_viol_tol': 1e-14}))
+        optimizer=dataclasses.replace(cfg.optimizer, tol=1e-13, options={'constr_viol_tol': 1e-14}),
+    )
     guess = simulate(base, 'low', x0, rtol=1e-7, atol=1e-10)  # a start; solved to 1e-13
     grads = {}
     for form in ('central', 'forward'):
@@ -142,8 +144,10 @@ def test_total_derivatives_match_fd_of_converged_model(cfg, scales):
                         vals.append(vp.objective())
                     fd.append((vals[0] - vals[1]) / (2 * h))
     for form, g in grads.items():
-        print(f'reduced gradient, {form} FD in the black box: largest relative difference '
-              f'to central differences of the converged model {np.max(np.abs(g / fd - 1)):.1e}')
+        print(
+            f'reduced gradient, {form} FD in the black box: largest relative difference '
+            f'to central differences of the converged model {np.max(np.abs(g / fd - 1)):.1e}'
+        )
     np.testing.assert_allclose(grads['central'], fd, rtol=1e-5)
     np.testing.assert_allclose(grads['forward'], fd, rtol=1e-5)
 
@@ -160,14 +164,22 @@ def test_check_totals_of_the_nlp(cfg, scales):
         p.run_model()
         wrt = [vp.design_var(n) for n in vp.design_names]
         of = ['objective.f'] + [c.name for c in vp.driver.layout().constraints]
-        data = p.check_totals(of=of, wrt=wrt, method='fd', form='central', step=1e-3,
-                              step_calc='rel', out_stream=None, driver_scaling=False)
+        data = p.check_totals(
+            of=of,
+            wrt=wrt,
+            method='fd',
+            form='central',
+            step=1e-3,
+            step_calc='rel',
+            out_stream=None,
+            driver_scaling=False,
+        )
     worst = 0.0
     for (o, w), d in data.items():
         J_fd, J_an = np.asarray(d['J_fd']), np.asarray(d['J_fwd'])
         scale = max(np.max(np.abs(J_fd)), 1e-30)
         worst = max(worst, np.max(np.abs(J_an - J_fd)) / scale)
-    print(f'check_totals: largest difference {worst:.1e} of each block\'s largest entry')
+    print(f"check_totals: largest difference {worst:.1e} of each block's largest entry")
     assert worst < 1e-4
 
 
@@ -177,15 +189,20 @@ def test_another_linkage_in_the_vehicle(cfg, scales):
     change. The coupled model still agrees with its time marching within 0.5 % on every
     J_k, and it is a different car from the parallelogram one."""
     import dataclasses as dc
+
     v = cfg.vehicle
-    sla = cfg.replace(vehicle=dc.replace(
-        v, front=dc.replace(v.front, mechanism='sla_double_wishbone'),
-        rear=dc.replace(v.rear, mechanism='sla_double_wishbone')))
+    sla = cfg.replace(
+        vehicle=dc.replace(
+            v,
+            front=dc.replace(v.front, mechanism='sla_double_wishbone'),
+            rear=dc.replace(v.rear, mechanism='sla_double_wishbone'),
+        )
+    )
     design = cfg.design.initial()
     res = evaluate(sla, 'mixed', design, scales=scales)
     v = res['verification']
     tm = np.array([v['scenarios'][0]['terms'][t] for t in cfg.terms()])
-    print(f"\nSLA car: J = {tm}, collocation vs time marching {v['max_rel_diff']:.1e}")
+    print(f'\nSLA car: J = {tm}, collocation vs time marching {v["max_rel_diff"]:.1e}')
     assert res['verified'] and v['max_rel_diff'] < 5e-3
     assert res['max_constraint_residual_m'] < 1e-10
     parallelogram = simulate(cfg, 'mixed', design, t_eval=np.array([0.0, 5.0])).J
@@ -199,14 +216,14 @@ def test_the_recorder_keeps_no_multibody_module_in_its_metadata(cfg, scales, tmp
     import openmdao.api as om
 
     from suspopt.results import read_trajectory
+
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=8))
     path = tmp_path / 'mixed.sql'
     with VehicleProblem(small, 'mixed', scales, recorder=path) as vp:
         vp.problem.run_model()
         vp.problem.record('check')
     reader = om.CaseReader(str(path))
-    options = {name: set(opts) for name, opts in
-               reader.list_model_options(out_stream=None).items()}
+    options = {name: set(opts) for name, opts in reader.list_model_options(out_stream=None).items()}
     assert 'traj.phases.s0.rhs_all.kinematics' in options  # the black boxes were recorded
     holding = sorted(n for n, o in options.items() if {'spec', 'modules', 'ode_init_kwargs'} & o)
     assert not holding, holding

@@ -38,6 +38,7 @@ Tolerances: the reference is accurate to ~1e-10 or better in the angles; the che
 the rates (measured ~4e-10), 1e-6 relative on accelerations and multipliers (measured
 ~1e-7: index-3 algebraic quantities, the least accurate part of the reference).
 """
+
 from __future__ import annotations
 
 import math
@@ -59,32 +60,70 @@ SS, SA, SB, SC, SD, TA, TB = 35e-3, 1874e-5, 1043e-5, 18e-3, 2e-2, 2308e-5, 916e
 U_, UA, UB, ZF, ZT, FA, MOM = 4e-2, 1228e-5, 449e-5, 2e-2, 4e-2, 1421e-5, 33e-3
 
 #: consistent initial angles (β, Θ, γ, Φ, δ, Ω, ε) at t = 0, velocities zero
-Q0 = [-0.0617138900142764496358948458001, 0.0, 0.455279819163070380255912382449,
-      0.222668390165885884674473185609, 0.487364979543842550225598953530,
-      -0.222668390165885884674473185609, 1.23054744454982119249735015568]
+Q0 = [
+    -0.0617138900142764496358948458001,
+    0.0,
+    0.455279819163070380255912382449,
+    0.222668390165885884674473185609,
+    0.487364979543842550225598953530,
+    -0.222668390165885884674473185609,
+    1.23054744454982119249735015568,
+]
 #: initial multipliers of g1, g2 (the others are 0), from the test set's INIT
 LAM0 = [98.56687039624108960576549821700, -6.12268834425566265503114393122]
 
 #: reference solution at t = 0.03 s (Test Set for IVP Solvers, andrews.f, SOLN)
-REF_Q = np.array([0.1581077119629904e+2, -0.1575637105984298e+2, 0.4082224013073101e-1,
-                  -0.5347301163226948e+0, 0.5244099658805304e+0, 0.5347301163226948e+0,
-                  0.1048080741042263e+1])
-REF_V = np.array([0.1139920302151208e+4, -0.1424379294994111e+4, 0.1103291221937134e+2,
-                  0.1929337464421385e+2, 0.5735699284790808e+0, -0.1929337464421385e+2,
-                  0.3231791658026955e+0])
-REF_A = np.array([-0.2463176316945196e+5, 0.5185037701610329e+5, 0.3241025686413781e+6,
-                  0.5667493645176213e+6, 0.1674362929479361e+5, -0.5667493645176222e+6,
-                  0.9826520791458422e+4])
-REF_LAM = np.array([0.1991753333731910e+3, -0.2975531228015052e+2, 0.2306654119098399e+2,
-                    0.3145271365475927e+2, 0.2264249232082739e+2, 0.1161740700019673e+2])
+REF_Q = np.array(
+    [
+        0.1581077119629904e2,
+        -0.1575637105984298e2,
+        0.4082224013073101e-1,
+        -0.5347301163226948e0,
+        0.5244099658805304e0,
+        0.5347301163226948e0,
+        0.1048080741042263e1,
+    ]
+)
+REF_V = np.array(
+    [
+        0.1139920302151208e4,
+        -0.1424379294994111e4,
+        0.1103291221937134e2,
+        0.1929337464421385e2,
+        0.5735699284790808e0,
+        -0.1929337464421385e2,
+        0.3231791658026955e0,
+    ]
+)
+REF_A = np.array(
+    [
+        -0.2463176316945196e5,
+        0.5185037701610329e5,
+        0.3241025686413781e6,
+        0.5667493645176213e6,
+        0.1674362929479361e5,
+        -0.5667493645176222e6,
+        0.9826520791458422e4,
+    ]
+)
+REF_LAM = np.array(
+    [
+        0.1991753333731910e3,
+        -0.2975531228015052e2,
+        0.2306654119098399e2,
+        0.3145271365475927e2,
+        0.2264249232082739e2,
+        0.1161740700019673e2,
+    ]
+)
 T_END = 0.03
 
 
-def _e(a):      # unit vector along angle a
+def _e(a):  # unit vector along angle a
     return np.array([math.cos(a), math.sin(a)])
 
 
-def _p(a):      # the test set's (sin a, -cos a)
+def _p(a):  # the test set's (sin a, -cos a)
     return np.array([math.sin(a), -math.cos(a)])
 
 
@@ -101,43 +140,74 @@ def build_andrews():
     assert np.allclose(E, F + E_ * _p(ph + de), atol=1e-12)
     assert np.allclose(E, G + ZF * _e(om + ep), atol=1e-12)
     ang = [be, be + th, ga, ph + de, de, om + ep, ep]
-    cg = [RA * _e(be), R - DA * _e(be + th), B + math.hypot(SA, SB) * _e(ga),
-          F + (E_ - EA) * _p(ph + de), A + math.hypot(TA, TB) * _e(de),
-          G + (ZF - FA) * _e(om + ep), A + math.hypot(UA, UB) * _e(ep)]
+    cg = [
+        RA * _e(be),
+        R - DA * _e(be + th),
+        B + math.hypot(SA, SB) * _e(ga),
+        F + (E_ - EA) * _p(ph + de),
+        A + math.hypot(TA, TB) * _e(de),
+        G + (ZF - FA) * _e(om + ep),
+        A + math.hypot(UA, UB) * _e(ep),
+    ]
     names = [f'K{i + 1}' for i in range(7)]
-    bodies = tuple(Body(names[i], M[i], I[i], (float(cg[i][0]), float(cg[i][1])), ang[i])
-                   for i in range(7))
+    bodies = tuple(
+        Body(names[i], M[i], I[i], (float(cg[i][0]), float(cg[i][1])), ang[i]) for i in range(7)
+    )
 
     def J(name, a, b, p):
         return RevoluteJoint(name, (a, b), (float(p[0]), float(p[1])))
 
-    joints = (J('O', 'K1', 'ground', O), J('R', 'K1', 'K2', R),
-              J('E23', 'K2', 'K3', E), J('E24', 'K2', 'K4', E), J('E26', 'K2', 'K6', E),
-              J('B', 'K3', 'ground', B), J('A5', 'K5', 'ground', A),
-              J('A7', 'K7', 'ground', A), J('F', 'K4', 'K5', F), J('G', 'K6', 'K7', G))
+    joints = (
+        J('O', 'K1', 'ground', O),
+        J('R', 'K1', 'K2', R),
+        J('E23', 'K2', 'K3', E),
+        J('E24', 'K2', 'K4', E),
+        J('E26', 'K2', 'K6', E),
+        J('B', 'K3', 'ground', B),
+        J('A5', 'K5', 'ground', A),
+        J('A7', 'K7', 'ground', A),
+        J('F', 'K4', 'K5', F),
+        J('G', 'K6', 'K7', G),
+    )
     # spring point D = B + (sd cos γ + sc sin γ, sd sin γ - sc cos γ) on body 3; C fixed
     Dp = B + SD * _e(ga) + SC * _p(ga)
     markers = (Marker('D', 'K3', (float(Dp[0]), float(Dp[1]))), Marker('C', 'ground', (XC, YC)))
     spring = SpringDamper('c0', ('C', 'D'), stiffness=C0, free_length=L0)
-    mech = Mechanism('Andrews squeezing mechanism', bodies, joints, markers=markers,
-                     independent=(('K1', 'phi'),), forces=(spring,))
+    mech = Mechanism(
+        'Andrews squeezing mechanism',
+        bodies,
+        joints,
+        markers=markers,
+        independent=(('K1', 'phi'),),
+        forces=(spring,),
+    )
     return mech, PlanarMultibodySolver(mech)
 
 
 def make_forces(solver):
-    def forces(t, q, qd):                            # driving torque on the crank (body 1)
+    def forces(t, q, qd):  # driving torque on the crank (body 1)
         Q = np.zeros(solver.n)
         Q[2] = MOM
         return Q
+
     return forces
 
 
 def relative(a):
     """Absolute body angles -> the published relative angles (β, Θ, γ, Φ, δ, Ω, ε)."""
     phi = a[..., 2::3]
-    return np.stack([phi[..., 0], phi[..., 1] - phi[..., 0], phi[..., 2],
-                     phi[..., 3] - phi[..., 4], phi[..., 4], phi[..., 5] - phi[..., 6],
-                     phi[..., 6]], -1)
+    return np.stack(
+        [
+            phi[..., 0],
+            phi[..., 1] - phi[..., 0],
+            phi[..., 2],
+            phi[..., 3] - phi[..., 4],
+            phi[..., 4],
+            phi[..., 5] - phi[..., 6],
+            phi[..., 6],
+        ],
+        -1,
+    )
 
 
 @pytest.fixture(scope='module')
@@ -149,36 +219,49 @@ def test_initial_multipliers(andrews):
     """At t = 0 the loop force at E between bodies 2 and 3 is the published λ(0)."""
     mech, solver = andrews
     st = solver.consistent_state(np.array([[Q0[0]]]), np.array([[0.0]]))
-    Q = solver.generalized_forces(st.q, None, st.qd) + make_forces(solver)(0.0, st.q[0],
-                                                                          st.qd[0])[None]
+    Q = (
+        solver.generalized_forces(st.q, None, st.qd)
+        + make_forces(solver)(0.0, st.q[0], st.qd[0])[None]
+    )
     qdd, lam = solver.solve_augmented(st.q, st.qd, Q)
     np.testing.assert_allclose(lam[0, 4:6], LAM0, rtol=1e-10)
     np.testing.assert_allclose(lam[0, 6:10], 0.0, atol=1e-10)
     # published initial accelerations: w(0) = (14222.44..., -10666.83..., 0, ..., 0)
-    np.testing.assert_allclose(relative(qdd[0]),
-                               [14222.4439199541138705911625887,
-                                -10666.8329399655854029433719415, 0, 0, 0, 0, 0],
-                               rtol=1e-10, atol=1e-8)
+    np.testing.assert_allclose(
+        relative(qdd[0]),
+        [14222.4439199541138705911625887, -10666.8329399655854029433719415, 0, 0, 0, 0, 0],
+        rtol=1e-10,
+        atol=1e-8,
+    )
 
 
 @pytest.mark.parametrize('method', ['partitioned', 'baumgarte'])
 def test_andrews_reference_solution_at_t_003(andrews, method):
     mech, solver = andrews
     t0 = time.perf_counter()
-    tr = simulate_mechanism(solver, (0.0, T_END), [Q0[0]], [0.0],
-                            forces=make_forces(solver), method=method,
-                            t_eval=np.array([0.0, T_END]), rtol=1e-10, atol=1e-12)
+    tr = simulate_mechanism(
+        solver,
+        (0.0, T_END),
+        [Q0[0]],
+        [0.0],
+        forces=make_forces(solver),
+        method=method,
+        t_eval=np.array([0.0, T_END]),
+        rtol=1e-10,
+        atol=1e-12,
+    )
     elapsed = time.perf_counter() - t0
     q, v, a = relative(tr.q[-1]), relative(tr.qd[-1]), relative(tr.qdd[-1])
     err_q = np.abs(q - REF_Q)
-    print(f'\n{method}: {elapsed:.2f} s, {tr.info["rhs_evaluations"]} rhs, '
-          f'angle error {err_q.max():.2e} rad, rate error '
-          f'{np.abs(v - REF_V).max() / np.abs(REF_V).max():.2e} rel, accel error '
-          f'{np.abs(a - REF_A).max() / np.abs(REF_A).max():.2e} rel, multiplier error '
-          f'{np.abs(tr.lam[-1, 4:10] - REF_LAM).max() / np.abs(REF_LAM).max():.2e} rel')
+    print(
+        f'\n{method}: {elapsed:.2f} s, {tr.info["rhs_evaluations"]} rhs, '
+        f'angle error {err_q.max():.2e} rad, rate error '
+        f'{np.abs(v - REF_V).max() / np.abs(REF_V).max():.2e} rel, accel error '
+        f'{np.abs(a - REF_A).max() / np.abs(REF_A).max():.2e} rel, multiplier error '
+        f'{np.abs(tr.lam[-1, 4:10] - REF_LAM).max() / np.abs(REF_LAM).max():.2e} rel'
+    )
     assert np.all(err_q < 1e-7), err_q
     np.testing.assert_allclose(v, REF_V, rtol=0, atol=1e-7 * np.abs(REF_V).max())
     np.testing.assert_allclose(a, REF_A, rtol=0, atol=1e-6 * np.abs(REF_A).max())
-    np.testing.assert_allclose(tr.lam[-1, 4:10], REF_LAM, rtol=0,
-                               atol=1e-6 * np.abs(REF_LAM).max())
+    np.testing.assert_allclose(tr.lam[-1, 4:10], REF_LAM, rtol=0, atol=1e-6 * np.abs(REF_LAM).max())
     assert tr.info['max_constraint_residual'] < 1e-9

@@ -17,6 +17,7 @@ plus noise ε_f/h, about 2e-5 of each block's largest entry. The check allows 1e
 an absolute floor of 1e-6 of the output's largest partial for blocks that are zero in
 exact arithmetic (e.g. ∂q̇_W/∂z_W of a parallelogram).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -29,11 +30,13 @@ from suspopt.multibody.suspension import SuspensionModule
 
 RANGES = {'z_W': 0.05, 'v_W': 0.5, 'z_M': 0.02, 'v_M': 0.3, 'F_T': 3000.0}
 SETTINGS = {'k_S': (1e4, 5e4), 'c_S': (1e3, 5e3)}
-H_REF = {'z_W': 1e-5, 'v_W': 1e-5, 'z_M': 1e-5, 'v_M': 1e-5, 'F_T': 1e-2, 'k_S': 1.0,
-         'c_S': 0.1}
+H_REF = {'z_W': 1e-5, 'v_W': 1e-5, 'z_M': 1e-5, 'v_M': 1e-5, 'F_T': 1e-2, 'k_S': 1.0, 'c_S': 0.1}
 KIN = (SuspensionKinematicsComp, ['z_W', 'v_W'], ['q_W', 'qd_W'])
-DYN = (SuspensionDynamicsComp, ['z_W', 'v_W', 'z_M', 'v_M', 'F_T', 'k_S', 'c_S'],
-       ['zdd_W', 'F_S', 'reactions'])
+DYN = (
+    SuspensionDynamicsComp,
+    ['z_W', 'v_W', 'z_M', 'v_M', 'F_T', 'k_S', 'c_S'],
+    ['zdd_W', 'F_S', 'reactions'],
+)
 
 
 def inputs(nn: int, seed: int = 0) -> dict[str, np.ndarray]:
@@ -48,8 +51,9 @@ def module_outputs(mod: SuspensionModule, x: dict[str, np.ndarray], kind: str):
     if kind == 'kin':
         return {'q_W': kin.q_W, 'qd_W': kin.qd_W}
     n = x['z_W'].size
-    acc, F_S, reac = mod.dynamics(kin.state, x['z_M'], x['v_M'], np.repeat(x['k_S'], n),
-                                  np.repeat(x['c_S'], n), x['F_T'])
+    acc, F_S, reac = mod.dynamics(
+        kin.state, x['z_M'], x['v_M'], np.repeat(x['k_S'], n), np.repeat(x['c_S'], n), x['F_T']
+    )
     return {'zdd_W': acc, 'F_S': F_S, 'reactions': reac.reshape(n, -1)}
 
 
@@ -76,8 +80,9 @@ def reference_jacobian(mod, x, kind, ins, outs):
 def make_problem(Comp, nn, mod, x, ins, **opts):
     """One corner (shape (nn, 1); settings (1,)) of module ``mod``."""
     p = om.Problem(reports=False)
-    comp = p.model.add_subsystem('c', Comp(num_nodes=nn, corners=1, modules=(mod,), **opts),
-                                 promotes=['*'])
+    comp = p.model.add_subsystem(
+        'c', Comp(num_nodes=nn, corners=1, modules=(mod,), **opts), promotes=['*']
+    )
     p.setup()
     for k in ins:
         p.set_val(k, x[k] if k in SETTINGS else np.reshape(x[k], (nn, 1)))
@@ -126,10 +131,13 @@ def test_fd_partials_match_independent_central_differences(cases, kind, nn):
             scale = max(np.max(np.abs(Jref[o][w])), floor / 1e-4)
             err = np.max(np.abs(J[o][w] - Jref[o][w]))
             if err > 1e-4 * scale:
-                failures.append(f'd{o}/d{w}: max error {err:.3e} = {err / scale:.1e} of '
-                                f'the block scale {scale:.3e}')
-    assert not failures, (f'{kind}, {nn} nodes: FD partials off by more than 1e-4:\n  '
-                          + '\n  '.join(failures))
+                failures.append(
+                    f'd{o}/d{w}: max error {err:.3e} = {err / scale:.1e} of '
+                    f'the block scale {scale:.3e}'
+                )
+    assert not failures, (
+        f'{kind}, {nn} nodes: FD partials off by more than 1e-4:\n  ' + '\n  '.join(failures)
+    )
 
 
 @pytest.mark.parametrize('form', ['forward', 'central'])
@@ -195,10 +203,10 @@ def test_solver_calls_per_jacobian_do_not_grow_with_nodes(kind, form, factor, me
     # perturbations), and nothing anew at a point it has just analysed. Factorizations:
     # C_q,dep inverted once per new pose (for the velocity analysis and eq. 11), and kept
     new = (1, 0) if form == 'forward' else (2, 0)
-    expected = [(factor * n_in, {'positions': factor, 'augmented': augmented,
-                                 'factorizations': new[0]}),
-                (factor * n_in, {'positions': 0, 'augmented': augmented,
-                                 'factorizations': new[1]})]
+    expected = [
+        (factor * n_in, {'positions': factor, 'augmented': augmented, 'factorizations': new[0]}),
+        (factor * n_in, {'positions': 0, 'augmented': augmented, 'factorizations': new[1]}),
+    ]
     for nn in (10, 80):
         assert counts[nn] == expected, (nn, counts[nn])
     assert counts[10] == counts[80]
@@ -213,16 +221,28 @@ def test_remembered_analyses_equal_fresh_ones():
     z = rng.uniform(-0.04, 0.04, 50)
     v = rng.uniform(-0.5, 0.5, 50)
     k, c = np.full(50, 3e4), np.full(50, 2e3)
-    queries = [(z, v), (z + 1e-6, v), (z, v + 1e-6), (z, v), (z + 0.01, v), (z + 1e-6, v),
-               (-z, 2 * v), (z, v)]
+    queries = [
+        (z, v),
+        (z + 1e-6, v),
+        (z, v + 1e-6),
+        (z, v),
+        (z + 0.01, v),
+        (z + 1e-6, v),
+        (-z, 2 * v),
+        (z, v),
+    ]
     for zq, vq in queries:
         kin = mod.kinematics(zq, vq)
         out = mod.dynamics(kin.state, 0.1 * zq, 0.2 * vq, k, c, 1000.0 * vq)
         fresh = SuspensionModule('double_wishbone')
         ref = fresh.kinematics(zq, vq)
         out_ref = fresh.dynamics(ref.state, 0.1 * zq, 0.2 * vq, k, c, 1000.0 * vq)
-        for a, b in ((kin.q_W, ref.q_W), (kin.qd_W, ref.qd_W), (kin.state.q, ref.state.q),
-                     *zip(out, out_ref)):
+        for a, b in (
+            (kin.q_W, ref.q_W),
+            (kin.qd_W, ref.qd_W),
+            (kin.state.q, ref.state.q),
+            *zip(out, out_ref),
+        ):
             assert np.array_equal(a, b)
     assert mod.reused >= 4  # the repeated positions and states were not recomputed
     assert mod.solver.calls['positions'] == 4  # one per distinct wheel travel
@@ -264,8 +284,7 @@ def test_declared_sparsity_is_the_true_one(cases, module, kind, nn):
         assert any(np.any(Jref[o][w] != 0.0) for w in ins), o
     # the declared pattern (rows/cols of declare_partials) is exactly that block pattern
     p, comp = make_problem(Comp, nn, module, x, ins)
-    declared = {(sj.of.split('.')[-1], sj.wrt.split('.')[-1]): sj
-                for sj in declared_subjacs(comp)}
+    declared = {(sj.of.split('.')[-1], sj.wrt.split('.')[-1]): sj for sj in declared_subjacs(comp)}
     for o in outs:
         for w in ins:
             sj = declared[o, w]
@@ -286,20 +305,26 @@ def test_corners_of_two_mechanisms_in_one_component():
     x = {k: rng.uniform(-r, r, (nn, 4)) for k, r in RANGES.items()}
     x.update({k: rng.uniform(lo, hi, 4) for k, (lo, hi) in SETTINGS.items()})
     p = om.Problem(reports=False)
-    comp = p.model.add_subsystem('c', SuspensionDynamicsComp(num_nodes=nn, corners=4,
-                                                            modules=mods), promotes=['*'])
+    comp = p.model.add_subsystem(
+        'c', SuspensionDynamicsComp(num_nodes=nn, corners=4, modules=mods), promotes=['*']
+    )
     p.setup()
     for k in DYN[1]:
         p.set_val(k, x[k])
     p.run_model()
     for c, mod in enumerate(mods):
         kin = mod.kinematics(x['z_W'][:, c], x['v_W'][:, c])
-        acc, F_S, reac = mod.dynamics(kin.state, x['z_M'][:, c], x['v_M'][:, c],
-                                      np.full(nn, x['k_S'][c]), np.full(nn, x['c_S'][c]),
-                                      x['F_T'][:, c])
+        acc, F_S, reac = mod.dynamics(
+            kin.state,
+            x['z_M'][:, c],
+            x['v_M'][:, c],
+            np.full(nn, x['k_S'][c]),
+            np.full(nn, x['c_S'][c]),
+            x['F_T'][:, c],
+        )
         np.testing.assert_array_equal(p.get_val('zdd_W')[:, c], acc)
         np.testing.assert_array_equal(p.get_val('F_S')[:, c], F_S)
-        np.testing.assert_array_equal(p.get_val('reactions')[:, c, :reac.shape[1]], reac)
+        np.testing.assert_array_equal(p.get_val('reactions')[:, c, : reac.shape[1]], reac)
     calls = [0]
     evaluate = comp.evaluate
 

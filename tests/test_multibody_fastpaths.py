@@ -3,6 +3,7 @@ give: the position analysis' C_q, max |C| and the coincidence joints' pool taken
 last Newton iteration; a small batch iterated as a whole (converged states held by a zero
 step) and a large one by subsets; SuspensionModule.dynamics from shared geometry and the
 pool; constraint_residual from the last kinematics; joint_reactions from one matrix."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -37,8 +38,10 @@ def test_analysed_positions_are_the_general_analyses(mechanism, N):
     same(Cq, s.constraint_jacobian(q))
     same(err, np.max(np.abs(s.constraints(q)), axis=1, initial=0.0))
     if pool is not None:
-        same(s._gamma_all(q, np.ones_like(q), [None] * len(s.joint_groups), pool=pool),
-             s.gamma(q, np.ones_like(q)))
+        same(
+            s._gamma_all(q, np.ones_like(q), [None] * len(s.joint_groups), pool=pool),
+            s.gamma(q, np.ones_like(q)),
+        )
 
 
 @pytest.mark.parametrize('mechanism', MECHANISMS)
@@ -47,9 +50,9 @@ def test_small_batch_newton_equals_single_states_and_subsets(mechanism):
     z, _ = travels(solver_mod.SMALL_BATCH + 4, seed=1)
     z[2] = 0.0  # converged at the first iteration: held by a zero step in a small batch
     q_ind = z[:, None] + s.q0[s.ind[0]]
-    large = s.positions(q_ind)                    # > SMALL_BATCH: subsets
-    small = s.positions(q_ind[:4])                # whole-batch iterations
-    single = np.concatenate([s.positions(q_ind[i:i + 1]) for i in range(4)])
+    large = s.positions(q_ind)  # > SMALL_BATCH: subsets
+    small = s.positions(q_ind[:4])  # whole-batch iterations
+    single = np.concatenate([s.positions(q_ind[i : i + 1]) for i in range(4)])
     same(small, large[:4])
     same(single, large[:4])
 
@@ -79,7 +82,7 @@ def test_module_dynamics_is_the_general_route(mechanism, N):
     same(st.lam, lam)
     same(F_S, -sp.force * sp.direction[:, 1 - mod.chassis_end, 1])
     same(R, s.joint_reactions(lam, st.q))
-    same(R, s.reactions(st.q, lam)[:, :s.nj, 0, :2])
+    same(R, s.reactions(st.q, lam)[:, : s.nj, 0, :2])
     # the wheel marker from its body's columns
     same(kin.q_W, s.marker_positions(st.q)[:, mod.wheel, 1] - mod.marker_ref[mod.wheel, 1])
     same(kin.qd_W, s.marker_velocities(st.q, st.qd)[:, mod.wheel, 1])
@@ -97,11 +100,21 @@ def test_dynamics_at_remembered_states_equal_fresh_modules_bit_for_bit(mechanism
     rng = np.random.default_rng(6)
 
     def loads():
-        return (0.2 * z, 0.3 * v, rng.uniform(2e4, 5e4, 6), rng.uniform(1e3, 5e3, 6),
-                rng.uniform(-3e3, 3e3, 6))
+        return (
+            0.2 * z,
+            0.3 * v,
+            rng.uniform(2e4, 5e4, 6),
+            rng.uniform(1e3, 5e3, 6),
+            rng.uniform(-3e3, 3e3, 6),
+        )
 
-    queries = [(z, v, loads()), (z, v, loads()), (z, v2, loads()), (z2, v2, loads()),
-               (z, v, loads())]
+    queries = [
+        (z, v, loads()),
+        (z, v, loads()),
+        (z, v2, loads()),
+        (z2, v2, loads()),
+        (z, v, loads()),
+    ]
     mod = SuspensionModule(mechanism)
     for zq, vq, args in queries:
         got = mod.dynamics(mod.kinematics(zq, vq).state, *args)
@@ -115,6 +128,7 @@ def test_the_kept_partitioning_follows_a_view_whose_base_changes():
     """A read-only view of a writable array can still change: it is not kept by identity
     (``frozen``), so ``C_q,dep⁻¹`` follows the change; a frozen C_q's is kept."""
     from suspopt.multibody.solver import freeze, frozen
+
     s = SuspensionModule('double_wishbone').solver
     base = s.constraint_jacobian(s.q0[None].repeat(2, 0)).ravel().copy()
     Cq = base.reshape(2, s.m, s.n)
@@ -148,6 +162,7 @@ def test_lapack_solve_and_inverse_equal_numpy_public_ones():
     ``np.linalg.solve`` and ``.inv``, for small batches) give what the public functions
     give, and raise as they do on a singular system; the public ones are their fallback."""
     from suspopt.multibody import solver as S
+
     rng = np.random.default_rng(0)
     A = rng.normal(size=(5, 4, 4)) + 4.0 * np.eye(4)
     b = rng.normal(size=(5, 4, 1))

@@ -11,6 +11,7 @@
 The MacPherson's motion ratio, camber and track change against closed-form geometry are
 in ``test_multibody_macpherson.py``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,14 +33,16 @@ def test_double_wishbone_curves_are_the_parallelogram_s():
     np.testing.assert_allclose(c['motion_ratio'], A_CG / LA, rtol=0, atol=1e-10)
     assert A_CG / LA == pytest.approx(0.4545, abs=1e-4)
     np.testing.assert_allclose(c['camber'], 0.0, atol=1e-10)
-    np.testing.assert_allclose(c['track_change'], LA * (np.cos(np.arcsin(w / LA)) - 1.0),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        c['track_change'], LA * (np.cos(np.arcsin(w / LA)) - 1.0), atol=1e-12
+    )
     np.testing.assert_allclose(c['spring_deflection'], -A_CG / LA * w, atol=1e-12)
     np.testing.assert_allclose(c['wheel_rate'], 25000.0 * (A_CG / LA) ** 2, rtol=1e-10)
 
 
-def static_hold(s: PlanarMultibodySolver, q: np.ndarray, k: float, spring: str,
-                marker: str) -> np.ndarray:
+def static_hold(
+    s: PlanarMultibodySolver, q: np.ndarray, k: float, spring: str, marker: str
+) -> np.ndarray:
     """The vertical force at ``marker`` that holds states ``q`` at rest against the spring."""
     i = s.marker_names.index(marker)
     body, u = int(s.mk_body[i]), s.mk_u[i]
@@ -69,20 +72,23 @@ def test_wheel_rate_is_the_static_force_per_travel(name):
 
     w, F = hold(0.0)
     np.testing.assert_allclose(w, c['travel'], atol=1e-12)
-    dVdw = -k * c['spring_deflection'] * c['motion_ratio']          # k s s_w
+    dVdw = -k * c['spring_deflection'] * c['motion_ratio']  # k s s_w
     np.testing.assert_allclose(F, dVdw, rtol=1e-9, atol=1e-9 * np.max(np.abs(F)))
     h = 1e-4
     (wp, Fp), (wm, Fm) = hold(h), hold(-h)
     rate = (Fp - Fm) / (wp - wm)
     err = np.max(np.abs(rate / c['wheel_rate'] - 1.0))
-    print(f'\n{name}: wheel rate {c["wheel_rate"].min():.0f}..{c["wheel_rate"].max():.0f} N/m '
-          f'(k = {k:g}); static force per travel differs by {err:.1e} (relative)')
+    print(
+        f'\n{name}: wheel rate {c["wheel_rate"].min():.0f}..{c["wheel_rate"].max():.0f} N/m '
+        f'(k = {k:g}); static force per travel differs by {err:.1e} (relative)'
+    )
     assert err < 1e-6
-    if name == 'double_wishbone':   # the file's tyre load at the contact patch: the same
+    if name == 'double_wishbone':  # the file's tyre load at the contact patch: the same
         q = s.positions((c['independent'] + s.q0[s.ind[0]])[:, None])
         patch = mech.force(roles['tyre_load']).marker
-        np.testing.assert_allclose(static_hold(s, q, k, roles['spring'], patch), F,
-                                   rtol=1e-9, atol=1e-6)
+        np.testing.assert_allclose(
+            static_hold(s, q, k, roles['spring'], patch), F, rtol=1e-9, atol=1e-6
+        )
 
 
 def test_table_and_figure(tmp_path):
@@ -91,30 +97,51 @@ def test_table_and_figure(tmp_path):
     lines = text.strip().splitlines()
     assert lines[2] == '| ' + ' | '.join(h for _, h, _ in COLUMNS) + ' |'
     assert len(lines) == 4 + 5
-    assert '| 0.0000 | 0.0000 | 0.4967 |' in text            # the reference row
+    assert '| 0.0000 | 0.0000 | 0.4967 |' in text  # the reference row
     path = plot_curves(c, tmp_path / 'k.png')
     assert path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and path.stat().st_size > 10_000
 
 
 def test_kinematics_command(tmp_path, capsys):
-    assert main(['kinematics', 'macpherson', '--travel=-0.05,0.05', '--k', '29770',
-                 '--points', '3', '--out', str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                'kinematics',
+                'macpherson',
+                '--travel=-0.05,0.05',
+                '--k',
+                '29770',
+                '--points',
+                '3',
+                '--out',
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert 'spring rate 29770 N/m' in out and '| -50.0000 |' in out and '| 50.0000 |' in out
     assert (tmp_path / 'kinematics_macpherson.png').is_file()
     assert (tmp_path / 'kinematics_macpherson.md').read_text() in out
 
 
-@pytest.mark.parametrize('argv, words', [
-    (['kinematics', 'no_such_linkage'], ['mechanism file not found: no_such_linkage']),
-    (['kinematics', 'double_wishbone', '--travel', '0.1'], ['--travel: expected MIN,MAX']),
-    (['kinematics', 'double_wishbone', '--travel=0.1,-0.1'], ['--travel: expected MIN,MAX']),
-    (['kinematics', 'double_wishbone', '--travel=-0.1,0.4'],
-     ['travel: double wishbone (paper Table 2) cannot follow the wheel travel [-0.1, 0.4] m']),
-    (['kinematics', 'double_wishbone', '--k', '0'], ['--k: the spring rate must be']),
-    (['kinematics', 'double_wishbone', '--k', 'nan'], ['--k: the spring rate must be']),
-    (['kinematics', 'double_wishbone', '--points', '1'], ['--points: need at least 2']),
-])
+@pytest.mark.parametrize(
+    'argv, words',
+    [
+        (['kinematics', 'no_such_linkage'], ['mechanism file not found: no_such_linkage']),
+        (['kinematics', 'double_wishbone', '--travel', '0.1'], ['--travel: expected MIN,MAX']),
+        (['kinematics', 'double_wishbone', '--travel=0.1,-0.1'], ['--travel: expected MIN,MAX']),
+        (
+            ['kinematics', 'double_wishbone', '--travel=-0.1,0.4'],
+            [
+                'travel: double wishbone (paper Table 2) cannot follow the wheel travel [-0.1, 0.4] m'
+            ],
+        ),
+        (['kinematics', 'double_wishbone', '--k', '0'], ['--k: the spring rate must be']),
+        (['kinematics', 'double_wishbone', '--k', 'nan'], ['--k: the spring rate must be']),
+        (['kinematics', 'double_wishbone', '--points', '1'], ['--points: need at least 2']),
+    ],
+)
 def test_kinematics_command_refuses_bad_input(tmp_path, capsys, argv, words):
     assert main(argv + ['--out', str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -129,5 +156,8 @@ def test_kinematics_command_refuses_a_bad_mechanism_file(tmp_path, capsys):
     bad.write_text(text.replace('axis = [-0.07874, 0.4699]', 'axis = [0.0, 0.0]'))
     assert main(['kinematics', str(bad), '--out', str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "joints[3].axis: must be a non-zero finite vector" in err[0] \
-        and "(joint 'strut')" in err[0], err
+    assert (
+        len(err) == 1
+        and 'joints[3].axis: must be a non-zero finite vector' in err[0]
+        and "(joint 'strut')" in err[0]
+    ), err

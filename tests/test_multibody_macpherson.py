@@ -15,6 +15,7 @@ with β the angle of ``B - T`` (pointing down, against the axis direction e)
 upright turns by ``α - α0``, and every upright point follows. Derivatives along θ by
 central differences (h = 1e-6: error ~1e-10).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,12 +28,23 @@ from suspopt.multibody.simulate import simulate_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
 CHRONO = {  # getLocation(), left side
-    'SPINDLE': (0.0, 0.750062, 0.0), 'UPRIGHT': (0.0, 0.650062, 0.0),
-    'LCA_F': (0.27051, 0.34544, -0.05969), 'LCA_B': (-0.04318, 0.37338, -0.12573),
-    'LCA_U': (0.02794, 0.66294, -0.10414), 'LCA_CM': (0.0708025, 0.511175, -0.098425),
-    'SPRING_C': (-0.08382, 0.54102, 0.46863), 'SPRING_U': (-0.00508, 0.61976, -0.00127)}
-MASS = {'spindle': 9.962477554, 'upright': 13.51, 'LCA': 2.72, 'strut': 13.5,
-        'wheel': 18.0, 'tire': 37.6}
+    'SPINDLE': (0.0, 0.750062, 0.0),
+    'UPRIGHT': (0.0, 0.650062, 0.0),
+    'LCA_F': (0.27051, 0.34544, -0.05969),
+    'LCA_B': (-0.04318, 0.37338, -0.12573),
+    'LCA_U': (0.02794, 0.66294, -0.10414),
+    'LCA_CM': (0.0708025, 0.511175, -0.098425),
+    'SPRING_C': (-0.08382, 0.54102, 0.46863),
+    'SPRING_U': (-0.00508, 0.61976, -0.00127),
+}
+MASS = {
+    'spindle': 9.962477554,
+    'upright': 13.51,
+    'LCA': 2.72,
+    'strut': 13.5,
+    'wheel': 18.0,
+    'tire': 37.6,
+}
 TYRE_RADIUS = 0.3186
 SCALE = 120.0 / sum(MASS.values())
 
@@ -78,26 +90,40 @@ def test_the_file_is_chronos_strut_in_the_front_view(mech):
     assert sum(b.mass for b in mech.bodies if not b.fixed) == pytest.approx(120.0, abs=1e-5)
     cg_W = (m_W * front('SPINDLE') + MASS['upright'] * (front('UPRIGHT') - front('SPINDLE'))) / m_W
     np.testing.assert_allclose(bodies['W'].position, cg_W, **close)
-    np.testing.assert_allclose(bodies['R'].position,
-                               (front('SPRING_C') + front('SPRING_U')) / 2, **close)
+    np.testing.assert_allclose(
+        bodies['R'].position, (front('SPRING_C') + front('SPRING_U')) / 2, **close
+    )
     np.testing.assert_allclose(bodies['L'].position, front('LCA_CM'), **close)
     # W's inertia about the longitudinal axis: the parts' diametral inertias plus offsets
-    I_W = 0.000478 + 0.0138 + 0.767875 + 3.84 + sum(
-        m * np.sum((front(p) - cg_W) ** 2) for m, p in (
-            (MASS['spindle'] + MASS['wheel'] + MASS['tire'], 'SPINDLE'),
-            (MASS['upright'], 'UPRIGHT')))
+    I_W = (
+        0.000478
+        + 0.0138
+        + 0.767875
+        + 3.84
+        + sum(
+            m * np.sum((front(p) - cg_W) ** 2)
+            for m, p in (
+                (MASS['spindle'] + MASS['wheel'] + MASS['tire'], 'SPINDLE'),
+                (MASS['upright'], 'UPRIGHT'),
+            )
+        )
+    )
     assert bodies['W'].inertia == pytest.approx(SCALE * I_W, abs=1e-6)
 
 
 def test_it_has_one_degree_of_freedom(mech):
     s = PlanarMultibodySolver(mech)
-    assert (s.n, s.m, s.dof) == (12, 11, 1)     # Exudyn: 9 coordinates, 8 constraints
+    assert (s.n, s.m, s.dof) == (12, 11, 1)  # Exudyn: 9 coordinates, 8 constraints
     assert mech.independent == (('W', 'z'),)
 
 
 #: the file's front-view hardpoints (the projection above, rounded to 1e-6 m)
-PIVOT, BALL, TOP, SEAT = (0.159096, -0.115752), (0.452878, -0.10414), (0.330958, 0.46863), \
-    (0.409698, -0.00127)
+PIVOT, BALL, TOP, SEAT = (
+    (0.159096, -0.115752),
+    (0.452878, -0.10414),
+    (0.330958, 0.46863),
+    (0.409698, -0.00127),
+)
 
 
 class ClosedForm:
@@ -140,13 +166,17 @@ def closed_form_errors(points: int = 11) -> dict[str, float]:
     err = dict.fromkeys(['motion ratio', 'deflection', 'camber', 'track'], 0.0)
     for i, w in enumerate(c['travel']):
         th = brentq(lambda t: g.travel(t) - w, g.theta0 - 0.6, g.theta0 + 0.6, xtol=1e-15)
-        mr = -((g.spring_length(th + h) - g.spring_length(th - h))
-               / (g.travel(th + h) - g.travel(th - h)))
+        mr = -(
+            (g.spring_length(th + h) - g.spring_length(th - h))
+            / (g.travel(th + h) - g.travel(th - h))
+        )
         cp = g.point(th, np.array([0.54, -TYRE_RADIUS]))
-        for key, got, want in (('motion ratio', c['motion_ratio'][i], mr),
-                               ('deflection', c['spring_deflection'][i], g.spring_length(th) - L0),
-                               ('camber', c['camber'][i], -np.degrees(g.pose(th)[1])),
-                               ('track', c['track_change'][i], cp[0] - 0.54)):
+        for key, got, want in (
+            ('motion ratio', c['motion_ratio'][i], mr),
+            ('deflection', c['spring_deflection'][i], g.spring_length(th) - L0),
+            ('camber', c['camber'][i], -np.degrees(g.pose(th)[1])),
+            ('track', c['track_change'][i], cp[0] - 0.54),
+        ):
             err[key] = max(err[key], abs(got - want))
     return err, c
 
@@ -156,8 +186,10 @@ TOL = {'motion ratio': 1e-8, 'deflection': 1e-12, 'camber': 1e-9, 'track': 1e-12
 
 def test_curves_match_the_closed_form_geometry():
     err, c = closed_form_errors()
-    print('\nMacPherson curves against the closed form: '
-          + ', '.join(f'{k} {v:.1e}' for k, v in err.items()))
+    print(
+        '\nMacPherson curves against the closed form: '
+        + ', '.join(f'{k} {v:.1e}' for k, v in err.items())
+    )
     for k, v in err.items():
         assert v < TOL[k], (k, v)
     # a real MacPherson: the motion ratio below 1 in rebound and above in bump, the
@@ -170,6 +202,7 @@ def test_a_wrong_strut_angle_is_caught(monkeypatch):
     """The same comparison fails when the prismatic joint's rotation equation is off by
     0.02 rad (and passes again after the repair)."""
     from suspopt.multibody.elements.prismatic import PrismaticGroup
+
     init = PrismaticGroup.__init__
 
     def wrong(self, specs, layout):
@@ -191,16 +224,19 @@ def test_free_oscillation_conserves_energy(mech, method):
     s = PlanarMultibodySolver(mech)
     params = {'strut_spring': {'stiffness': 3.0e4, 'damping': 0.0}}
     t = np.linspace(0.0, 1.0, 201)
-    tr = simulate_mechanism(s, (0.0, 1.0), [s.q0[1] + 0.04], [0.0], params=params,
-                            method=method, t_eval=t)
+    tr = simulate_mechanism(
+        s, (0.0, 1.0), [s.q0[1] + 0.04], [0.0], params=params, method=method, t_eval=t
+    )
     E = s.kinetic_energy(tr.qd) + s.potential_energy(tr.q, params)
     z = tr.q[:, 1] - s.q0[1]
-    assert z.min() < -0.035 and z.max() > 0.035                 # it swung through
+    assert z.min() < -0.035 and z.max() > 0.035  # it swung through
     crossings = np.count_nonzero(np.diff(np.sign(z)))
     assert crossings >= 4
     drift = np.max(np.abs(E / E[0] - 1.0))
-    print(f'\nMacPherson free oscillation ({method}): {crossings / 2:g} periods, energy '
-          f'drift {drift:.1e}, constraint residual {tr.info["max_constraint_residual"]:.1e}')
+    print(
+        f'\nMacPherson free oscillation ({method}): {crossings / 2:g} periods, energy '
+        f'drift {drift:.1e}, constraint residual {tr.info["max_constraint_residual"]:.1e}'
+    )
     assert drift < 1e-7
     assert tr.info['max_constraint_residual'] < 1e-9
 
@@ -209,15 +245,24 @@ def test_a_strut_that_jams_within_the_travel_is_refused(mech):
     """The top mount moved to (0.5, 0.05): the strut lies almost flat and the upright,
     sliding on it, cannot follow the arm 10 mm into the bump."""
     import dataclasses
+
     from suspopt.errors import ConfigError
     from suspopt.multibody.mechanism import Marker
+
     top = (0.5, 0.05)
-    joints = tuple(dataclasses.replace(j, point=top) if j.name == 'R-F' else
-                   dataclasses.replace(j, axis=tuple(np.subtract(top, SEAT) /
-                                                     np.hypot(*np.subtract(top, SEAT))))
-                   if j.name == 'strut' else j for j in mech.joints)
-    markers = tuple(Marker('top_mount', 'F', top) if m.name == 'top_mount' else m
-                    for m in mech.markers)
+    joints = tuple(
+        dataclasses.replace(j, point=top)
+        if j.name == 'R-F'
+        else dataclasses.replace(
+            j, axis=tuple(np.subtract(top, SEAT) / np.hypot(*np.subtract(top, SEAT)))
+        )
+        if j.name == 'strut'
+        else j
+        for j in mech.joints
+    )
+    markers = tuple(
+        Marker('top_mount', 'F', top) if m.name == 'top_mount' else m for m in mech.markers
+    )
     jammed = dataclasses.replace(mech, joints=joints, markers=markers)
     with pytest.raises(ConfigError) as err:
         PlanarMultibodySolver(jammed)

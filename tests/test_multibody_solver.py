@@ -16,6 +16,7 @@ coupler. Hence, exactly and for any travel,
 These closed forms are derived here from the body data (not from the solver) and are what
 the solver is checked against.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -24,6 +25,7 @@ import tomllib
 
 import numpy as np
 import pytest
+from mechanisms import with_suspension_load  # noqa: E402 (tests/ is on the path)
 
 from suspopt.errors import ConfigError, MultibodyError
 from suspopt.multibody.mechanism import mechanism_from_dict, mechanism_path
@@ -31,16 +33,14 @@ from suspopt.multibody.simulate import simulate_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 from suspopt.multibody.suspension import SuspensionModule
 
-from mechanisms import with_suspension_load  # noqa: E402 (tests/ is on the path)
-
 # ------------------------------------------------------------------ closed-form reference
 PIVOT_U, PIVOT_L = np.array([0.12, 0.2]), np.array([0.12, -0.2])
-LA = 0.45 - 0.12                  # arm length pivot -> wheel joint
-A_CG = 0.27 - 0.12                # pivot -> arm CG = spring point
+LA = 0.45 - 0.12  # arm length pivot -> wheel joint
+A_CG = 0.27 - 0.12  # pivot -> arm CG = spring point
 RATIO = (0.27 - 0.12) / (0.45 - 0.12)
 M_W, M_ARM, I_ARM = 80.0, 20.0, 0.15
-J_THETA = M_W * LA**2 + 2.0 * (M_ARM * A_CG**2 + I_ARM)     # inertia about the arm angle
-M_EFF = M_W + 2.0 * (M_ARM * A_CG**2 + I_ARM) / LA**2        # = J_THETA / LA**2
+J_THETA = M_W * LA**2 + 2.0 * (M_ARM * A_CG**2 + I_ARM)  # inertia about the arm angle
+M_EFF = M_W + 2.0 * (M_ARM * A_CG**2 + I_ARM) / LA**2  # = J_THETA / LA**2
 
 # indices of the body coordinates (bodies W, U, L, F in file order; q = (x, z, phi))
 W, U, L, F = 0, 1, 2, 3
@@ -79,10 +79,12 @@ def test_free_motion_conserves_energy_and_constraints(solver, method):
     T = solver.kinetic_energy(tr.qd)
     drift = np.max(np.abs(T / T[0] - 1.0))
     residual = np.max(np.abs(solver.constraints(tr.q)))
-    print(f'\n{method}: kinetic energy drift {drift:.1e} over 5 s, constraint residual '
-          f'{residual:.1e} m')
-    assert np.max(np.abs(tr.q[:, xi(W, 1)])) < 0.1          # stayed in the intended range
-    assert tr.q[-1, xi(W, 1)] > 0.07                        # and really moved
+    print(
+        f'\n{method}: kinetic energy drift {drift:.1e} over 5 s, constraint residual '
+        f'{residual:.1e} m'
+    )
+    assert np.max(np.abs(tr.q[:, xi(W, 1)])) < 0.1  # stayed in the intended range
+    assert tr.q[-1, xi(W, 1)] > 0.07  # and really moved
     assert drift < 1e-6, f'{method}: kinetic energy drift {drift:.2e}'
     assert residual < 1e-9, f'{method}: constraint residual {residual:.2e} m'
     # exact solution: uniform rotation of the arms, the wheel does not rotate
@@ -114,12 +116,11 @@ def test_large_rotation_of_the_parallelogram(mech, method, direction):
     # max_step: the exact motion has zero acceleration, so the error estimate is ~0 and
     # DOP853 would grow its step until one stage asks Newton (warm-started from the last
     # evaluation) for a pose tens of degrees away, which does not converge
-    tr = simulate_mechanism(s, (0.0, T_end), [0.0], [omega], method=method, t_eval=t,
-                            max_step=0.05)
+    tr = simulate_mechanism(s, (0.0, T_end), [0.0], [omega], method=method, t_eval=t, max_step=0.05)
     theta = tr.q[:, xi(U, 2)]
     np.testing.assert_allclose(theta, omega * t, rtol=0, atol=1e-8)
     np.testing.assert_allclose(tr.q[:, xi(L, 2)], theta, rtol=0, atol=1e-8)
-    assert np.max(np.abs(tr.q[:, xi(W, 2)])) < 1e-9                      # no wheel rotation
+    assert np.max(np.abs(tr.q[:, xi(W, 2)])) < 1e-9  # no wheel rotation
     np.testing.assert_allclose(tr.q[:, xi(W, 1)], LA * np.sin(theta), atol=1e-9)
     np.testing.assert_allclose(tr.q[:, xi(W, 0)], 0.54 + LA * (np.cos(theta) - 1), atol=1e-9)
     T = s.kinetic_energy(tr.qd)
@@ -141,16 +142,19 @@ def test_gravity_energy_conserved(mech, method):
 
     t = np.linspace(0.0, 5.0, 201)
     tr = simulate_mechanism(s, (0.0, 5.0), [0.0], [0.0], loads=loads, method=method, t_eval=t)
-    E = (s.kinetic_energy(tr.qd) + s.potential_energy(tr.q)
-         + 0.5 * k * spring_z(tr.q) ** 2)
+    E = s.kinetic_energy(tr.qd) + s.potential_energy(tr.q) + 0.5 * k * spring_z(tr.q) ** 2
     z = tr.q[:, xi(W, 1)]
-    assert -0.1 < z.min() < -0.08 and z.max() < 1e-9              # it really oscillated
+    assert -0.1 < z.min() < -0.08 and z.max() < 1e-9  # it really oscillated
     T_max = np.max(s.kinetic_energy(tr.qd))
     assert np.max(np.abs(E - E[0])) < 1e-6 * T_max
     assert np.max(np.abs(s.constraints(tr.q))) < 1e-9
     # gravity potential is -Σ m g·r, independently
-    pot = 9.81 * (M_W * tr.q[:, xi(W, 1)] + M_ARM * tr.q[:, xi(U, 1)] + M_ARM * tr.q[:, xi(L, 1)]
-                  + 10.0 * tr.q[:, xi(F, 1)])
+    pot = 9.81 * (
+        M_W * tr.q[:, xi(W, 1)]
+        + M_ARM * tr.q[:, xi(U, 1)]
+        + M_ARM * tr.q[:, xi(L, 1)]
+        + 10.0 * tr.q[:, xi(F, 1)]
+    )
     np.testing.assert_allclose(s.potential_energy(tr.q), pot, rtol=1e-12, atol=1e-12)
 
 
@@ -170,8 +174,9 @@ def test_motion_ratio_and_wheel_path(z):
     assert kin.q_W[0] == pytest.approx(z, rel=1e-12)
     # the coupler does not rotate; its lateral shift follows the arc of the arms
     assert abs(q[xi(W, 2)]) < 1e-12
-    assert q[xi(W, 0)] - 0.54 == pytest.approx(LA * (math.cos(math.asin(z / LA)) - 1.0),
-                                               rel=1e-9, abs=1e-15)
+    assert q[xi(W, 0)] - 0.54 == pytest.approx(
+        LA * (math.cos(math.asin(z / LA)) - 1.0), rel=1e-9, abs=1e-15
+    )
     assert q[xi(U, 2)] == pytest.approx(math.asin(z / LA), rel=1e-10)
     assert q[xi(L, 2)] == pytest.approx(math.asin(z / LA), rel=1e-10)
 
@@ -186,8 +191,9 @@ def test_wheel_rate_static(solver):
         zU = spring_z(st.q[0])
         acc = []
         for FT in (0.0, 1000.0):  # acceleration is affine in F_T: find its root
-            qdd, _ = solver.solve_augmented(st.q, st.qd, solver.generalized_forces(
-                st.q, np.array([[k * zU, FT]])))
+            qdd, _ = solver.solve_augmented(
+                st.q, st.qd, solver.generalized_forces(st.q, np.array([[k * zU, FT]]))
+            )
             acc.append(qdd[0, xi(W, 1)])
         FT_hold = -acc[0] * 1000.0 / (acc[1] - acc[0])
         assert FT_hold == pytest.approx(k * RATIO**2 * z, rel=1e-9)
@@ -203,19 +209,27 @@ def test_wheel_rate_natural_frequency(solver):
     omega_ref = math.sqrt(k * RATIO**2 / M_EFF)
     period = 2 * math.pi / omega_ref
     t = np.linspace(0.0, 3 * period, 3001)
-    tr = simulate_mechanism(solver, (0.0, t[-1]), [1e-3], [0.0], t_eval=t,
-                            loads=lambda t, q, qd: np.array([k * spring_z(q), 0.0]))
+    tr = simulate_mechanism(
+        solver,
+        (0.0, t[-1]),
+        [1e-3],
+        [0.0],
+        t_eval=t,
+        loads=lambda t, q, qd: np.array([k * spring_z(q), 0.0]),
+    )
     z = tr.q[:, xi(W, 1)]
     # downward zero crossings, linearly interpolated (dense output every 1e-3 period)
     i = np.nonzero((z[:-1] > 0) & (z[1:] <= 0))[0]
     tc = t[i] - z[i] * (t[i + 1] - t[i]) / (z[i + 1] - z[i])
     assert len(tc) == 3
     measured = 2 * math.pi / np.mean(np.diff(tc))
-    print(f'\nwheel hop on the linkage: {measured:.6f} rad/s, closed form {omega_ref:.6f} '
-          f'(m_eff {M_EFF:.4f} kg, wheel rate k r² = {RATIO**2:.4f} k): relative error '
-          f'{abs(measured / omega_ref - 1):.1e}')
+    print(
+        f'\nwheel hop on the linkage: {measured:.6f} rad/s, closed form {omega_ref:.6f} '
+        f'(m_eff {M_EFF:.4f} kg, wheel rate k r² = {RATIO**2:.4f} k): relative error '
+        f'{abs(measured / omega_ref - 1):.1e}'
+    )
     assert measured == pytest.approx(omega_ref, rel=2e-5)
-    assert np.max(np.abs(z)) == pytest.approx(1e-3, rel=1e-6)   # no spurious damping
+    assert np.max(np.abs(z)) == pytest.approx(1e-3, rel=1e-6)  # no spurious damping
 
 
 # ================================================================== reactions
@@ -241,7 +255,7 @@ def _joint_geometry(mech):
 
 def _newton_euler_residual(mech, solver, q, qd, qdd, lam, F_S, F_T):
     """Per moving body: m a - ΣF and I φ̈ - ΣM_cg, with the joint forces from λ."""
-    R = solver.joint_reactions(lam[None])[0]              # on each joint's first body
+    R = solver.joint_reactions(lam[None])[0]  # on each joint's first body
     forces = {b: np.zeros(2) for b in range(len(mech.bodies))}
     moments = {b: 0.0 for b in range(len(mech.bodies))}
 
@@ -265,9 +279,13 @@ def _newton_euler_residual(mech, solver, q, qd, qdd, lam, F_S, F_T):
     for b, body in enumerate(mech.bodies):
         if body.fixed:
             continue
-        res.append(np.r_[body.mass * qdd[xi(b, 0)] - forces[b][0],
-                         body.mass * qdd[xi(b, 1)] - forces[b][1],
-                         body.inertia * qdd[xi(b, 2)] - moments[b]])
+        res.append(
+            np.r_[
+                body.mass * qdd[xi(b, 0)] - forces[b][0],
+                body.mass * qdd[xi(b, 1)] - forces[b][1],
+                body.inertia * qdd[xi(b, 2)] - moments[b],
+            ]
+        )
     return np.array(res), forces, moments
 
 
@@ -275,18 +293,20 @@ def test_reactions_balance_loads_in_static_equilibrium(mech, solver):
     k, z = 3.0e4, 0.03
     st = solver.consistent_state(np.array([[z]]), np.array([[0.0]]))
     F_S = k * spring_z(st.q[0])
-    F_T = k * RATIO**2 * z                                  # holds the wheel (see above)
-    qdd, lam = solver.solve_augmented(st.q, st.qd,
-                                      solver.generalized_forces(st.q, np.array([[F_S, F_T]])))
-    assert np.max(np.abs(qdd)) < 1e-9                       # static equilibrium
-    res, forces, moments = _newton_euler_residual(mech, solver, st.q[0], st.qd[0], qdd[0],
-                                                  lam[0], F_S, F_T)
+    F_T = k * RATIO**2 * z  # holds the wheel (see above)
+    qdd, lam = solver.solve_augmented(
+        st.q, st.qd, solver.generalized_forces(st.q, np.array([[F_S, F_T]]))
+    )
+    assert np.max(np.abs(qdd)) < 1e-9  # static equilibrium
+    res, forces, moments = _newton_euler_residual(
+        mech, solver, st.q[0], st.qd[0], qdd[0], lam[0], F_S, F_T
+    )
     for b in (W, U, L):
         assert np.max(np.abs(forces[b])) < 1e-9 * F_T, mech.bodies[b].name
         assert abs(moments[b]) < 1e-9 * F_T, mech.bodies[b].name
     # the reactions are not trivially zero: the wheel joints carry the tyre load
     R = solver.joint_reactions(lam)[0]
-    assert abs(R[0, 1] + R[1, 1]) == pytest.approx(F_T, rel=1e-9)   # W-U + W-L on W
+    assert abs(R[0, 1] + R[1, 1]) == pytest.approx(F_T, rel=1e-9)  # W-U + W-L on W
 
 
 def test_reactions_newton_euler_in_motion(mech, solver):
@@ -296,8 +316,9 @@ def test_reactions_newton_euler_in_motion(mech, solver):
         z, v = rng.uniform(-0.05, 0.05), rng.uniform(-0.5, 0.5)
         F_S, F_T = rng.uniform(-3000, 3000, 2)
         st = solver.dynamics(np.array([[z]]), np.array([[v]]), np.array([[F_S, F_T]]))
-        res, _, _ = _newton_euler_residual(mech, solver, st.q[0], st.qd[0], st.qdd[0],
-                                           st.lam[0], F_S, F_T)
+        res, _, _ = _newton_euler_residual(
+            mech, solver, st.q[0], st.qd[0], st.qdd[0], st.lam[0], F_S, F_T
+        )
         assert np.max(np.abs(res)) < 1e-9 * 3000.0
 
 
@@ -308,6 +329,7 @@ def test_eliminations_of_eq_11_equal_the_assembled_augmented_solve(mechanism):
     give the same q̈ and λ as an LU factorization of the assembled augmented matrix, with
     and without Baumgarte terms, at many moving, loaded states."""
     from suspopt.multibody.suspension import SuspensionModule
+
     solver = SuspensionModule(mechanism).solver
     rng = np.random.default_rng(11)
     N = 64
@@ -333,18 +355,33 @@ def _bad(mutate):
     return data
 
 
-@pytest.mark.parametrize('mutate, words', [
-    (lambda d: d['joints'][0].__setitem__('bodies', ['W', 'Wheel']),
-     ['joints[0].bodies', "unknown body 'Wheel'"]),
-    (lambda d: d['bodies'][1].__setitem__('mass', 0.0), ['bodies[1].mass', 'must be > 0']),
-    (lambda d: d['bodies'][2].__setitem__('mass', -20.0), ['bodies[2].mass', 'must be > 0']),
-    (lambda d: d['bodies'][0].__setitem__('inertia', 0.0), ['bodies[0].inertia', 'must be > 0']),
-    (lambda d: d['bodies'][0].__setitem__('inertia', float('nan')),
-     ['bodies[0].inertia', 'finite']),
-    (lambda d: d['markers'][0].__setitem__('body', 'X'), ['markers[0].body', "unknown body 'X'"]),
-    (lambda d: d['independent'][0].__setitem__('coordinate', 'y'),
-     ['independent[0].coordinate', "'y'"]),
-])
+@pytest.mark.parametrize(
+    'mutate, words',
+    [
+        (
+            lambda d: d['joints'][0].__setitem__('bodies', ['W', 'Wheel']),
+            ['joints[0].bodies', "unknown body 'Wheel'"],
+        ),
+        (lambda d: d['bodies'][1].__setitem__('mass', 0.0), ['bodies[1].mass', 'must be > 0']),
+        (lambda d: d['bodies'][2].__setitem__('mass', -20.0), ['bodies[2].mass', 'must be > 0']),
+        (
+            lambda d: d['bodies'][0].__setitem__('inertia', 0.0),
+            ['bodies[0].inertia', 'must be > 0'],
+        ),
+        (
+            lambda d: d['bodies'][0].__setitem__('inertia', float('nan')),
+            ['bodies[0].inertia', 'finite'],
+        ),
+        (
+            lambda d: d['markers'][0].__setitem__('body', 'X'),
+            ['markers[0].body', "unknown body 'X'"],
+        ),
+        (
+            lambda d: d['independent'][0].__setitem__('coordinate', 'y'),
+            ['independent[0].coordinate', "'y'"],
+        ),
+    ],
+)
 def test_invalid_mechanism_data_is_a_config_error(mutate, words):
     with pytest.raises(ConfigError) as err:
         mechanism_from_dict(_bad(mutate), suspension=True)
@@ -355,11 +392,14 @@ def test_invalid_mechanism_data_is_a_config_error(mutate, words):
 def test_locked_mechanism_is_a_config_error():
     """A diagonal brace D from the U-F pivot to the W-L joint makes the parallelogram a
     truss: 0 degrees of freedom, but the file names one independent coordinate."""
+
     def brace(d):
-        d['bodies'].append({'name': 'D', 'mass': 1.0, 'inertia': 0.01,
-                            'position': [0.285, 0.0]})
-        d['joints'] += [{'name': 'D-F', 'bodies': ['D', 'F'], 'point': [0.12, 0.2]},
-                        {'name': 'D-W', 'bodies': ['D', 'W'], 'point': [0.45, -0.2]}]
+        d['bodies'].append({'name': 'D', 'mass': 1.0, 'inertia': 0.01, 'position': [0.285, 0.0]})
+        d['joints'] += [
+            {'name': 'D-F', 'bodies': ['D', 'F'], 'point': [0.12, 0.2]},
+            {'name': 'D-W', 'bodies': ['D', 'W'], 'point': [0.45, -0.2]},
+        ]
+
     with pytest.raises(ConfigError) as err:
         PlanarMultibodySolver(mechanism_from_dict(_bad(brace), suspension=True))
     msg = str(err.value)
@@ -370,17 +410,21 @@ def test_redundant_mechanism_is_a_config_error():
     """A third parallel arm M (pivot (0.12, 0), joint on W at (0.45, 0)) is a redundant
     constraint: the equation count says 0 DOF while the linkage still moves. Naming the
     wheel travel is a count error; naming nothing leaves a singular C_q."""
+
     def third_arm(d):
-        d['bodies'].append({'name': 'M', 'mass': 20.0, 'inertia': 0.15,
-                            'position': [0.27, 0.0]})
-        d['joints'] += [{'name': 'M-F', 'bodies': ['M', 'F'], 'point': [0.12, 0.0]},
-                        {'name': 'M-W', 'bodies': ['M', 'W'], 'point': [0.45, 0.0]}]
+        d['bodies'].append({'name': 'M', 'mass': 20.0, 'inertia': 0.15, 'position': [0.27, 0.0]})
+        d['joints'] += [
+            {'name': 'M-F', 'bodies': ['M', 'F'], 'point': [0.12, 0.0]},
+            {'name': 'M-W', 'bodies': ['M', 'W'], 'point': [0.45, 0.0]},
+        ]
+
     with pytest.raises(ConfigError, match='0 degrees of freedom'):
         PlanarMultibodySolver(mechanism_from_dict(_bad(third_arm), suspension=True))
 
     def third_arm_no_ind(d):
         third_arm(d)
         d['independent'] = []
+
     with pytest.raises(ConfigError, match='singular constraint Jacobian.*redundant'):
         PlanarMultibodySolver(mechanism_from_dict(_bad(third_arm_no_ind)))
 
@@ -388,9 +432,10 @@ def test_redundant_mechanism_is_a_config_error():
 def test_wrong_number_of_independent_coordinates_is_a_config_error():
     def two(d):
         d['independent'].append({'body': 'U', 'coordinate': 'phi'})
+
     with pytest.raises(ConfigError, match='exactly one independent coordinate'):
         mechanism_from_dict(_bad(two), suspension=True)
-    with pytest.raises(ConfigError) as err:                       # generic mechanism
+    with pytest.raises(ConfigError) as err:  # generic mechanism
         PlanarMultibodySolver(mechanism_from_dict(_bad(two)))
     assert '1 degrees of freedom' in str(err.value) and '2 independent' in str(err.value)
 
@@ -421,7 +466,7 @@ def test_nan_and_out_of_range_inputs_are_multibody_errors(solver):
     with pytest.raises(MultibodyError, match='non-finite independent coordinate'):
         solver.consistent_state(np.array([[0.0], [np.inf]]), np.array([[0.0], [0.0]]))
     with pytest.raises(MultibodyError, match='did not converge.*out of the mechanism'):
-        solver.positions(np.array([[0.34]]))          # beyond the arm length 0.33 m
+        solver.positions(np.array([[0.34]]))  # beyond the arm length 0.33 m
     with pytest.raises(MultibodyError, match='non-finite value in the augmented system'):
         solver.dynamics(np.array([[0.0]]), np.array([[0.0]]), np.array([[np.nan, 0.0]]))
     with pytest.raises(MultibodyError, match='non-finite value in the velocity analysis'):
@@ -456,9 +501,9 @@ def test_batched_dynamics_equals_single_state_calls(solver):
     batch = solver.dynamics(z, v, loads)
     tol = solver.newton_tol
     for i in range(N):
-        one = solver.dynamics(z[i:i + 1], v[i:i + 1], loads[i:i + 1])
+        one = solver.dynamics(z[i : i + 1], v[i : i + 1], loads[i : i + 1])
         # position error ≲ 10 newton_tol; it propagates to q̇, q̈, λ through O(1..1e3) factors
-        np.testing.assert_allclose(one.q, batch.q[i:i + 1], rtol=0, atol=10 * tol)
-        np.testing.assert_allclose(one.qd, batch.qd[i:i + 1], rtol=0, atol=10 * tol)
-        np.testing.assert_allclose(one.qdd, batch.qdd[i:i + 1], rtol=0, atol=1e3 * tol)
-        np.testing.assert_allclose(one.lam, batch.lam[i:i + 1], rtol=0, atol=1e5 * tol)
+        np.testing.assert_allclose(one.q, batch.q[i : i + 1], rtol=0, atol=10 * tol)
+        np.testing.assert_allclose(one.qd, batch.qd[i : i + 1], rtol=0, atol=10 * tol)
+        np.testing.assert_allclose(one.qdd, batch.qdd[i : i + 1], rtol=0, atol=1e3 * tol)
+        np.testing.assert_allclose(one.lam, batch.lam[i : i + 1], rtol=0, atol=1e5 * tol)

@@ -1,4 +1,5 @@
 """The comfort/road-holding Pareto front (suspopt.pareto): one problem, reweighted."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -51,7 +52,8 @@ def test_front_is_a_front(front, scales):
         f = sum(p['weights'][t] * p['terms'][t] / s[t] for t in s)
         assert p['objective'] == pytest.approx(f, rel=1e-12)
         assert (p['comfort'], p['road_holding']) == pytest.approx(
-            comfort_and_road_holding(p['terms'], s), rel=1e-12)
+            comfort_and_road_holding(p['terms'], s), rel=1e-12
+        )
 
 
 @pytest.mark.parametrize('index', [1, 2])  # alpha = 0.25 and the paper's equal weights

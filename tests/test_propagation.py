@@ -2,32 +2,40 @@
 public path (one OpenMDAO linear solve per color) on every model kind, at a perturbed
 point where no derivative is zero by accident; and the comparison fails when one edge of
 the data flow is wrong."""
+
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
 import pytest
+from test_sparsity import _cases, _problem
 
 from suspopt.config import config_from_dict
 from suspopt.driver import sparsity
 from suspopt.driver.propagation import PropagatedTotals, make_totals
 from suspopt.driver.totals import ColoredTotals
-from test_sparsity import _cases, _problem
 
-CASES = ['half car, low', 'half car, mixed', 'full car with bars, low',
-         'half car, mixed, chassis mount', 'full car with bars, mixed, chassis mount',
-         'two scenarios, worst case, low']
+CASES = [
+    'half car, low',
+    'half car, mixed',
+    'full car with bars, low',
+    'half car, mixed, chassis mount',
+    'full car with bars, mixed, chassis mount',
+    'two scenarios, worst case, low',
+]
 
 
 def _config(cfg, case):
     if case == 'two scenarios, worst case, low':
-        two = config_from_dict({'objective': {'aggregate': 'max'},
-                                'scenario': [{'name': 'slow', 'speed': 8.0},
-                                             {'name': 'fast', 'speed': 14.0}]})
+        two = config_from_dict(
+            {
+                'objective': {'aggregate': 'max'},
+                'scenario': [{'name': 'slow', 'speed': 8.0}, {'name': 'fast', 'speed': 14.0}],
+            }
+        )
         # a structure test: 5 segments (too coarse for results, refused in a file)
-        return two.replace(transcription=dataclasses.replace(two.transcription,
-                                                             segments=5)), 'low'
+        return two.replace(transcription=dataclasses.replace(two.transcription, segments=5)), 'low'
     return _cases(cfg)[case]
 
 
@@ -37,8 +45,10 @@ def _perturb(vp, seed=0):
     for name in p.model.get_io_metadata(iotypes='output', return_rel_names=False):
         if '.states:' in name or 'parameters:' in name:
             v = p.get_val(name)
-            p.set_val(name, v * (1 + 0.1 * rng.standard_normal(v.shape))
-                      + 1e-3 * rng.standard_normal(v.shape))
+            p.set_val(
+                name,
+                v * (1 + 0.1 * rng.standard_normal(v.shape)) + 1e-3 * rng.standard_normal(v.shape),
+            )
     p.run_model()
 
 
@@ -74,8 +84,12 @@ def test_comparison_fails_on_a_wrong_edge(cfg):
         _perturb(vp)
         fast, public = _both(vp)
         g1, j1 = public.compute()
-        products = [p for ps in fast._products.values() for p in ps
-                    if p.edge.of.endswith('rhs_all.dJ_dt') or 'collocation' in p.edge.of]
+        products = [
+            p
+            for ps in fast._products.values()
+            for p in ps
+            if p.edge.of.endswith('rhs_all.dJ_dt') or 'collocation' in p.edge.of
+        ]
         wrong = products[0]
         object.__setattr__(wrong.edge, 'factor', wrong.edge.factor * 1.001)
         g0, j0 = fast.compute()

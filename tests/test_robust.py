@@ -1,6 +1,7 @@
 """Robust design over several scenarios in one NLP: reductions to the single-scenario
 problem, stationarity of the sum against separately built problems, the worst case, and the
 dense-row (reverse) derivatives of the epigraph form."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -17,9 +18,13 @@ SEGMENTS = 20
 
 
 def _config(scenarios, aggregate='sum', segments=SEGMENTS):
-    return config_from_dict({'transcription': {'segments': segments},
-                             'objective': {'aggregate': aggregate},
-                             'scenario': scenarios})
+    return config_from_dict(
+        {
+            'transcription': {'segments': segments},
+            'objective': {'aggregate': aggregate},
+            'scenario': scenarios,
+        }
+    )
 
 
 TWO = [{'name': 'slow', 'speed': 8.0}, {'name': 'fast', 'speed': 14.0}]
@@ -55,8 +60,9 @@ def test_ipopt_sees_the_weighted_mean_and_reports_the_weighted_sum():
     seen = []
     r = optimize(cfg, 'low', scales=scales, progress=seen.append)
     assert r['success']
-    assert r['objective'] == pytest.approx(combine(cfg, [s['objective'] for s in r['scenarios']]),
-                                           rel=1e-12)
+    assert r['objective'] == pytest.approx(
+        combine(cfg, [s['objective'] for s in r['scenarios']]), rel=1e-12
+    )
     assert r['history'][-1]['objective'] == pytest.approx(r['objective'], rel=1e-7)
     assert seen and seen[-1].objective == pytest.approx(r['objective'], rel=1e-7)
 
@@ -73,8 +79,10 @@ def test_sum_optimum_is_stationary_for_separately_built_problems(sum_optimum):
     singles = [_config([sc]) for sc in TWO]
 
     def total(design):
-        return sum(evaluate(c, 'low', design, scales=(s,), verify=False)['objective']
-                   for c, s in zip(singles, scales))
+        return sum(
+            evaluate(c, 'low', design, scales=(s,), verify=False)['objective']
+            for c, s in zip(singles, scales)
+        )
 
     x = res['design']
     f0 = total(x)
@@ -112,10 +120,18 @@ def test_a_short_scenarios_worst_case_row_goes_to_reverse_too():
     spanning under a fifth of the NLP's columns: all four are left to reverse solves, so
     the forward colors stay those of the sparse rows (kept forward, that row alone would
     need one color per state of its scenario: hundreds, and their dense seeds)."""
-    cfg = config_from_dict({'transcription': {'segments': 80}, 'objective': {'aggregate': 'max'},
-                            'scenario': [{'name': 'coarse', 'segments': 16},
-                                         {'name': 'b', 'speed': 8.0}, {'name': 'c', 'speed': 12.0},
-                                         {'name': 'd', 'speed': 14.0}]})
+    cfg = config_from_dict(
+        {
+            'transcription': {'segments': 80},
+            'objective': {'aggregate': 'max'},
+            'scenario': [
+                {'name': 'coarse', 'segments': 16},
+                {'name': 'b', 'speed': 8.0},
+                {'name': 'c', 'speed': 12.0},
+                {'name': 'd', 'speed': 14.0},
+            ],
+        }
+    )
     scales = tuple(dict.fromkeys(cfg.terms(), 1.0) for _ in cfg.scenarios())
     with VehicleProblem(cfg, 'low', scales, use_cache=False) as vp:
         vp.driver.prepare()
@@ -146,14 +162,19 @@ def test_dense_rows_by_reverse_solves_equal_openmdaos_totals(monkeypatch):
         rng = np.random.default_rng(2)
         for v in lay.design_vars:
             val = p.get_val(v.name)
-            p.set_val(v.name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01)
-                      * 0.5)
+            p.set_val(
+                v.name, val + rng.uniform(-1, 1, val.shape) * np.maximum(np.abs(val), 0.01) * 0.5
+            )
         p.run_model()
         x = drv.scaled_design()
         grad, jac = drv.gradient(x), drv.jacobian(x)
-        J = p.compute_totals(of=[lay.objective.name] + [c.name for c in lay.constraints],
-                             wrt=[v.name for v in lay.design_vars], return_format='array',
-                             coloring_info=False, driver_scaling=True)
+        J = p.compute_totals(
+            of=[lay.objective.name] + [c.name for c in lay.constraints],
+            wrt=[v.name for v in lay.design_vars],
+            return_format='array',
+            coloring_info=False,
+            driver_scaling=True,
+        )
     assert coloring.reverse_rows.size == len(cfg.scenarios())
     np.testing.assert_allclose(grad, J[0], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(jac, J[1 + coloring.rows, coloring.cols], rtol=1e-9, atol=1e-12)
@@ -171,10 +192,12 @@ def test_robust_command_shows_what_the_robust_design_buys(tmp_path, capsys):
     are complete and the report renders them; one scenario is not a robust study."""
     from suspopt.cli import main
     from suspopt.results import read_json
+
     study = tmp_path / 'robust.toml'
-    study.write_text('[transcription]\nsegments = "auto"\n'
-                     + ''.join(f"[[scenario]]\nname = \"{sc['name']}\"\nspeed = {sc['speed']}\n"
-                               for sc in TWO))
+    study.write_text(
+        '[transcription]\nsegments = "auto"\n'
+        + ''.join(f'[[scenario]]\nname = "{sc["name"]}"\nspeed = {sc["speed"]}\n' for sc in TWO)
+    )
     out = tmp_path / 'run'
     assert main(['robust', '--config', str(study), '--out', str(out), '--quiet']) == 0
     data = read_json(out / 'robust.json')
@@ -184,8 +207,7 @@ def test_robust_command_shows_what_the_robust_design_buys(tmp_path, capsys):
     for name in ('slow', 'fast'):
         own = cross[name]['scenarios'][name]
         assert all(own <= c['scenarios'][name] * (1 + 2e-3) for c in cross.values()), name
-    assert all(cross['robust']['aggregate'] <= c['aggregate'] * (1 + 2e-3)
-               for c in cross.values())
+    assert all(cross['robust']['aggregate'] <= c['aggregate'] * (1 + 2e-3) for c in cross.values())
     table = (out / 'table.md').read_text()
     assert '| robust |' in table and (out / 'figures' / 'robustness.png').stat().st_size > 0
     assert 'Every optimum on every scenario' in capsys.readouterr().out
@@ -203,8 +225,12 @@ def test_mixed_fidelity_scenarios_are_the_separate_problems():
     design = cfg.design.initial()
     both = evaluate(cfg, 'mixed', design, scales=scales, verify=False)
     assert both['success']
-    alone = [evaluate(_config([sc], segments=24), 'mixed', design, scales=(scales[0],),
-                      verify=False)['objective'] for sc in TWO]
+    alone = [
+        evaluate(_config([sc], segments=24), 'mixed', design, scales=(scales[0],), verify=False)[
+            'objective'
+        ]
+        for sc in TWO
+    ]
     for rec, f in zip(both['scenarios'], alone):
         assert rec['objective'] == pytest.approx(f, rel=1e-7), rec['name']
     assert both['objective'] == pytest.approx(sum(alone), rel=1e-7)

@@ -1,6 +1,7 @@
 """The exact total sparsity from declared structure (suspopt.driver.sparsity) against
 OpenMDAO's own dense, randomized total-Jacobian sparsity (the public fallback path), on
 small grids of every model; and the coloring is a valid one."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -22,22 +23,35 @@ def _problem(cfg, fidelity):
 def _cases(cfg):
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=5))
     full = full_car_defaults()
-    full = config_from_dict({**full.to_dict(),
-                             'objective': {'normalization': 'custom', 'scales': dict.fromkeys(
-                                 full.terms(), 1.0)}})
+    full = config_from_dict(
+        {
+            **full.to_dict(),
+            'objective': {'normalization': 'custom', 'scales': dict.fromkeys(full.terms(), 1.0)},
+        }
+    )
     # a structure test: 4 segments (too coarse for results, refused in a study file)
     full = full.replace(transcription=dataclasses.replace(full.transcription, segments=4))
     chassis = dataclasses.replace(small.multibody, mount='chassis')
     full_chassis = full.replace(multibody=dataclasses.replace(full.multibody, mount='chassis'))
-    return {'half car, low': (small, 'low'), 'half car, mixed': (small, 'mixed'),
-            'full car with bars, low': (full, 'low'),
-            'half car, mixed, chassis mount': (small.replace(multibody=chassis), 'mixed'),
-            'full car with bars, mixed, chassis mount': (full_chassis, 'mixed')}
+    return {
+        'half car, low': (small, 'low'),
+        'half car, mixed': (small, 'mixed'),
+        'full car with bars, low': (full, 'low'),
+        'half car, mixed, chassis mount': (small.replace(multibody=chassis), 'mixed'),
+        'full car with bars, mixed, chassis mount': (full_chassis, 'mixed'),
+    }
 
 
-@pytest.mark.parametrize('case', ['half car, low', 'half car, mixed',
-                                  'full car with bars, low', 'half car, mixed, chassis mount',
-                                  'full car with bars, mixed, chassis mount'])
+@pytest.mark.parametrize(
+    'case',
+    [
+        'half car, low',
+        'half car, mixed',
+        'full car with bars, low',
+        'half car, mixed, chassis mount',
+        'full car with bars, mixed, chassis mount',
+    ],
+)
 def test_structural_sparsity_equals_openmdaos_dense_sparsity(cfg, case):
     config, fidelity = _cases(cfg)[case]
     with _problem(config, fidelity) as vp:
@@ -47,8 +61,9 @@ def test_structural_sparsity_equals_openmdaos_dense_sparsity(cfg, case):
         D = _dense_sparsity(vp.problem, lay.constraints, lay.design_vars)
     assert S.shape == D.shape == (lay.m, lay.n)
     A, B = S.toarray().astype(bool), D.toarray().astype(bool)
-    assert np.array_equal(A, B), (f'{int((B & ~A).sum())} nonzeros missing, '
-                                  f'{int((A & ~B).sum())} extra')
+    assert np.array_equal(A, B), (
+        f'{int((B & ~A).sum())} nonzeros missing, {int((A & ~B).sum())} extra'
+    )
     assert structure.supported()
 
 
@@ -56,6 +71,7 @@ def test_coloring_is_valid_and_compact():
     """No two columns of one color share a row; empty columns get no color; a banded
     pattern needs about its bandwidth in colors."""
     import scipy.sparse as sp
+
     rng = np.random.default_rng(0)
     n, band = 400, 6
     rows, cols = [], []
@@ -72,7 +88,7 @@ def test_coloring_is_valid_and_compact():
     Jc = J.tocsc()
     for c in range(colors.max() + 1):
         members = np.nonzero(colors == c)[0]
-        hit = np.concatenate([Jc.indices[Jc.indptr[j]:Jc.indptr[j + 1]] for j in members])
+        hit = np.concatenate([Jc.indices[Jc.indptr[j] : Jc.indptr[j + 1]] for j in members])
         assert np.unique(hit).size == hit.size, f'color {c} columns share a row'
     assert colors.max() + 1 <= 2 * band + 2
 
@@ -83,6 +99,7 @@ def test_dense_rows_are_the_ones_that_would_force_many_colors():
     columns or less) all go; a thousand rows of 300 stay forward (300 colors < 1000
     reverse seeds); no row of DENSE_ROW_MIN or fewer nonzeros goes."""
     from suspopt.driver.sparsity import DENSE_ROW_MIN, dense_rows
+
     rows = np.full(19120, 20)
     epigraph = np.array([3645, 4005, 7285, 4205])
     assert dense_rows(np.concatenate([rows, epigraph])).tolist() == list(range(19120, 19124))

@@ -1,5 +1,6 @@
 """suspopt sweep end to end: real Dask clusters (a LocalCluster, and a scheduler and
 workers started as subprocesses), real optimizations, real signals and killed workers."""
+
 from __future__ import annotations
 
 import json
@@ -50,6 +51,7 @@ def _files(tmp_path: Path, sweep: str, name: str = 'sweep.toml') -> Path:
 
 def _cli(args, capsys):
     from suspopt.cli import main  # here: the cache test's spawned writers import this module
+
     code = main(args)
     out = capsys.readouterr()
     return code, out.err
@@ -61,11 +63,11 @@ def _records(out: Path) -> dict[str, dict]:
 
 # --------------------------------------------------------------------------- local cluster
 @pytest.mark.slow
-def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path, capsys,
-                                                                         cluster):
+def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path, capsys, cluster):
     """On the external cluster (--scheduler); then, extended, on a local one (Ctrl-C)."""
     from suspopt.config import config_from_dict, load_config
     from suspopt.study import optimize
+
     address, client = cluster
     path = _files(tmp_path, PRODUCT)
     out = tmp_path / 'out'
@@ -121,20 +123,35 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
 def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path, capsys):
     """A local cluster forks its workers on Linux (spawn elsewhere): both ways, the same
     optima bit for bit (spawned: through the command line's --worker-start)."""
-    path = _files(tmp_path, PRODUCT.replace('road.seed = [0, 1]', 'road.seed = [0]')
-                  .replace('[10.0, 15.0]', '[12.0]'))
+    path = _files(
+        tmp_path,
+        PRODUCT.replace('road.seed = [0, 1]', 'road.seed = [0]').replace('[10.0, 15.0]', '[12.0]'),
+    )
     fork_log: list[str] = []
     outcome = run_sweep(path, tmp_path / 'fork', workers=1, log=fork_log.append)
     assert outcome.exit_code == 0 and outcome.counts['done'] == 1
     assert 'local cluster: 1 worker process(es), one thread each (forked)' in fork_log
-    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'spawn'), '--workers', '1',
-                      '--worker-start', 'spawn'], capsys)
-    assert code == 0 and 'local cluster: 1 worker process(es), one thread each (spawned)' \
-        in err, err
+    code, err = _cli(
+        [
+            'sweep',
+            str(path),
+            '--out',
+            str(tmp_path / 'spawn'),
+            '--workers',
+            '1',
+            '--worker-start',
+            'spawn',
+        ],
+        capsys,
+    )
+    assert code == 0 and 'local cluster: 1 worker process(es), one thread each (spawned)' in err, (
+        err
+    )
     logs = ('fork', 'spawn')
-    objectives = {start: sorted((n, r['result']['objective'])
-                                for n, r in _records(tmp_path / start).items())
-                  for start in logs}
+    objectives = {
+        start: sorted((n, r['result']['objective']) for n, r in _records(tmp_path / start).items())
+        for start in logs
+    }
     assert objectives['fork'] == objectives['spawn']
     with pytest.raises(ConfigError, match="worker_start: expected 'auto', 'fork' or 'spawn'"):
         run_sweep(path, tmp_path / 'x', worker_start='forkserver')
@@ -144,10 +161,15 @@ def _setup_in_forked_child(queue) -> None:
     from threadpoolctl import threadpool_info
 
     from suspopt.sweep import dask_setup
+
     dask_setup(None)
-    queue.put((signal.getsignal(signal.SIGTERM) == signal.SIG_DFL,
-               signal.getsignal(signal.SIGINT) == signal.SIG_IGN,
-               sorted({p['num_threads'] for p in threadpool_info()})))
+    queue.put(
+        (
+            signal.getsignal(signal.SIGTERM) == signal.SIG_DFL,
+            signal.getsignal(signal.SIGINT) == signal.SIG_IGN,
+            sorted({p['num_threads'] for p in threadpool_info()}),
+        )
+    )
 
 
 def test_worker_setup_drops_the_clients_sigterm_and_limits_blas_threads():
@@ -156,6 +178,7 @@ def test_worker_setup_drops_the_clients_sigterm_and_limits_blas_threads():
     from threadpoolctl import threadpool_limits
 
     from suspopt.sweep import _sweep_sigterm
+
     ctx = mp.get_context('fork')
     queue = ctx.Queue()
     old = signal.signal(signal.SIGTERM, _sweep_sigterm)
@@ -174,11 +197,25 @@ def _interrupt(path: Path, out: Path, when) -> None:
     """Run ``suspopt sweep`` on a local cluster of one worker, SIGINT it once ``when()``;
     check exit 130, the message, and that every process it started is gone."""
     import psutil
+
     # SIGINT at its default in the child, whatever this process inherited (a shell starts
     # a background job with SIGINT ignored, and an ignored signal stays ignored on exec)
-    proc = subprocess.Popen([sys.executable, '-m', 'suspopt.cli', 'sweep', str(path), '--out',
-                             str(out), '--workers', '1'], stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            '-m',
+            'suspopt.cli',
+            'sweep',
+            str(path),
+            '--out',
+            str(out),
+            '--workers',
+            '1',
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     children: set[int] = set()
     deadline = time.monotonic() + 120
     while not when() and time.monotonic() < deadline:
@@ -188,33 +225,44 @@ def _interrupt(path: Path, out: Path, when) -> None:
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert 'local cluster: 1 worker process(es)' in err
-    assert 'the sweep file changed (sweep.axes.maneuver.speed: [10, 15] -> ' \
-           '[10, 15, 11, 12, 13]): 6 new task(s); the 4 earlier task(s) are kept' in err
+    assert (
+        'the sweep file changed (sweep.axes.maneuver.speed: [10, 15] -> '
+        '[10, 15, 11, 12, 13]): 6 new task(s); the 4 earlier task(s) are kept' in err
+    )
     assert 'interrupted: cancelling pending tasks' in err and 'Traceback' not in err
     assert children
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline and [p for p in children if psutil.pid_exists(p)]:
         time.sleep(0.1)
-    assert not [p for p in children if psutil.pid_exists(p)
-                and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+    assert not [
+        p
+        for p in children
+        if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE
+    ]
 
 
 # --------------------------------------------------------------------------- input checks
 BAD = [
-    ('[axes]\n"maneuver.sped" = [1.0]\n', "axes.maneuver.sped: not a study-file key (did you "
-                                          "mean 'maneuver.speed'?)"),
+    (
+        '[axes]\n"maneuver.sped" = [1.0]\n',
+        "axes.maneuver.sped: not a study-file key (did you mean 'maneuver.speed'?)",
+    ),
     ('[axes]\n"road.seed" = []\n', 'axes.road.seed: empty list'),
     ('[axes]\n"road.seed" = 3\n', 'axes.road.seed: must be a list of values'),
     ('[axes]\n"maneuver.speed" = [10.0, -1.0]\n', 'maneuver.speed: must be > 0, got -1'),
     ('[axes]\n"vehicle.front" = [1]\n', 'axes.vehicle.front: is a table'),
-    ('fidelty = "low"\n[axes]\n"road.seed" = [0]\n', "fidelty: unknown key (did you mean "
-                                                     "'fidelity'?)"),
+    (
+        'fidelty = "low"\n[axes]\n"road.seed" = [0]\n',
+        "fidelty: unknown key (did you mean 'fidelity'?)",
+    ),
     ('fidelity = "medium"\n[axes]\n"road.seed" = [0]\n', 'fidelity: must be one of low, mixed'),
     ('[axes]\n"road.height" = [0.1]\n', "road.height: unknown key for profile 'iso8608'"),
     ('[axes]\nstart = [{ k_S1 = 1.0 }]\n', 'start.k_S1: 1 is outside the bounds'),
     ('mode = "list"\n', 'tasks: mode = "list" needs a non-empty list'),
-    ('mode = "list"\n[[tasks]]\n"road.seed" = 1\n[[tasks]]\n"road.seed" = 1\n',
-     'tasks[1]: the same task as tasks[0]'),
+    (
+        'mode = "list"\n[[tasks]]\n"road.seed" = 1\n[[tasks]]\n"road.seed" = 1\n',
+        'tasks[1]: the same task as tasks[0]',
+    ),
     ('[multistart]\nn = 0\n', 'multistart.n: must be an integer >= 1'),
     ('[multistart]\nn = 4\nmethod = "grid"\n', 'multistart.method: must be one of'),
     ('command = "study"\n[multistart]\nn = 4\n', "multistart: only for command = 'optimize'"),
@@ -233,8 +281,7 @@ def test_bad_sweep_files_exit_2_naming_the_key(tmp_path, capsys, text, message):
 
 def test_refusals_exit_2(tmp_path, capsys):
     path = _files(tmp_path, PRODUCT)
-    code, err = _cli(['sweep', str(tmp_path / 'nope.toml'), '--out', str(tmp_path / 'o')],
-                     capsys)
+    code, err = _cli(['sweep', str(tmp_path / 'nope.toml'), '--out', str(tmp_path / 'o')], capsys)
     assert code == 2 and 'sweep file not found' in err
     (tmp_path / 'busy').mkdir()
     with DirectoryLock(tmp_path / 'busy'):  # a second sweep in the same directory
@@ -249,8 +296,10 @@ def test_refusals_exit_2(tmp_path, capsys):
 
 
 def test_multistart_spreads_starts_over_the_design_box(tmp_path):
-    path = _files(tmp_path, 'study = "study.toml"\n[axes]\n"road.seed" = [0, 1]\n'
-                            '[multistart]\nn = 8\nseed = 3\n')
+    path = _files(
+        tmp_path,
+        'study = "study.toml"\n[axes]\n"road.seed" = [0, 1]\n[multistart]\nn = 8\nseed = 3\n',
+    )
     sweep = load_sweep(path)
     assert len(sweep.tasks) == 16 and sweep.axes == ['road.seed', 'start']
     starts = [t.start for t in sweep.tasks if t.values['road.seed'] == 0]
@@ -264,9 +313,18 @@ def test_multistart_spreads_starts_over_the_design_box(tmp_path):
 def test_a_failing_task_is_a_record_with_its_traceback(tmp_path):
     """run_task itself (no cluster): the worker-side build fails, the record says why."""
     bad = {'maneuver': {'speed': -1.0}}
-    rec = run_task({'name': 't', 'command': 'optimize', 'fidelity': 'low', 'start': None,
-                    'config': bad, 'verify': True, 'out_dir': str(tmp_path / 'o'),
-                    'topic': None})
+    rec = run_task(
+        {
+            'name': 't',
+            'command': 'optimize',
+            'fidelity': 'low',
+            'start': None,
+            'config': bad,
+            'verify': True,
+            'out_dir': str(tmp_path / 'o'),
+            'topic': None,
+        }
+    )
     assert rec['state'] == 'failed' and rec['worker'] is None
     assert rec['error'] == 'ConfigError: maneuver.speed: must be > 0, got -1'
     assert 'Traceback' in rec['traceback'] and 'ConfigError' in rec['traceback']
@@ -276,6 +334,7 @@ def _dies_at_speed_13(payload: dict) -> dict:
     """A task function whose worker process dies when its task has speed 13 (a no-op
     task otherwise): a crash in native code, as the local cluster sees it."""
     from suspopt.sweep import noop_task
+
     time.sleep(0.2)
     if payload['config']['maneuver']['speed'] == 13.0:
         os._exit(1)
@@ -287,16 +346,21 @@ def test_a_dead_local_worker_charges_only_its_own_task(tmp_path):
     may die): a worker that dies charges its running task only, so with no retries that
     task fails as killed, after its one attempt, and every other task is done at its
     first attempt."""
-    path = _files(tmp_path, 'study = "study.toml"\nfidelity = "low"\nretries = 0\n'
-                  '[axes]\n"maneuver.speed" = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]\n')
+    path = _files(
+        tmp_path,
+        'study = "study.toml"\nfidelity = "low"\nretries = 0\n'
+        '[axes]\n"maneuver.speed" = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]\n',
+    )
     out = tmp_path / 'out'
-    res = run_sweep(path, out, workers=2, log=lambda m: None, task_fn=_dies_at_speed_13,
-                    worker_start='fork')
+    res = run_sweep(
+        path, out, workers=2, log=lambda m: None, task_fn=_dies_at_speed_13, worker_start='fork'
+    )
     recs = _records(out)
     assert len(recs) == 7 and res.exit_code == 1
     states = {r['task']['values']['maneuver.speed']: r['state'] for r in recs.values()}
-    assert states == {v: "done" if v != 13.0 else "failed" for v in states}, \
-        [(r["task"]["values"], r["error"]) for r in recs.values() if r["state"] != "done"]
+    assert states == {v: 'done' if v != 13.0 else 'failed' for v in states}, [
+        (r['task']['values'], r['error']) for r in recs.values() if r['state'] != 'done'
+    ]
     dead = next(r for r in recs.values() if r['state'] == 'failed')
     assert dead['error'].startswith('KilledWorker'), dead['error']
     assert all(r['attempts'] == 1 for r in recs.values()), [r['attempts'] for r in recs.values()]
@@ -308,21 +372,53 @@ def cluster(tmp_path_factory):
     """A real ``dask scheduler`` and two ``dask worker`` processes (nannies restart a
     killed worker; the scheduler lets a task survive one worker death)."""
     from distributed import Client
+
     root = tmp_path_factory.mktemp('cluster')
     env = {**os.environ, 'DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES': '1'}
     sched_file = root / 'scheduler.json'
-    procs = [subprocess.Popen([DASK, 'scheduler', '--port', '0', '--no-dashboard',
-                               '--scheduler-file', str(sched_file)], env=env, cwd=root,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs = [
+        subprocess.Popen(
+            [
+                DASK,
+                'scheduler',
+                '--port',
+                '0',
+                '--no-dashboard',
+                '--scheduler-file',
+                str(sched_file),
+            ],
+            env=env,
+            cwd=root,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
     try:
         deadline = time.monotonic() + 60
         while not sched_file.exists() and time.monotonic() < deadline:
             time.sleep(0.05)
         for i in range(2):
-            procs.append(subprocess.Popen(
-                [DASK, 'worker', '--scheduler-file', str(sched_file), '--nthreads', '1',
-                 '--no-dashboard', '--preload', 'suspopt.sweep', '--name', f'w{i}'],
-                env=env, cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        DASK,
+                        'worker',
+                        '--scheduler-file',
+                        str(sched_file),
+                        '--nthreads',
+                        '1',
+                        '--no-dashboard',
+                        '--preload',
+                        'suspopt.sweep',
+                        '--name',
+                        f'w{i}',
+                    ],
+                    env=env,
+                    cwd=root,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
         address = json.loads(sched_file.read_text())['address']
         client = Client(address, timeout='30s')
         client.wait_for_workers(2, timeout=60)
@@ -364,12 +460,11 @@ def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cl
     recs = sorted(_records(out).values(), key=lambda r: r['task']['values']['maneuver.speed'])
     assert [r['state'] for r in recs] == ['done', 'failed']
     assert recs[1]['error'] == 'IPOPT Maximum_Iterations_Exceeded after 1 iterations'
-    assert f"failed: {recs[1]['name']}: IPOPT Maximum_Iterations_Exceeded" in err
+    assert f'failed: {recs[1]["name"]}: IPOPT Maximum_Iterations_Exceeded' in err
     assert 'done 1, running 0, failed 1, total 2' in err
     assert {r['worker'] for r in recs} <= set(cluster[1].scheduler_info()['workers'])
     table = (out / 'table.md').read_text()
     assert '2 tasks, 1 done, 1 failed' in table and 'Maximum_Iterations_Exceeded' in table
-
 
 
 def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
@@ -404,15 +499,22 @@ def _kill_running_worker(client, out: Path, kills: int, runner) -> list[int]:
 def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
     """The sweep runs in a thread here (its client is its own); this thread kills."""
     import threading
+
     address, client = cluster
     # the multibody model: a task of about 2 s, long enough to be found running
-    path = _files(tmp_path, f'study = "study.toml"\nfidelity = "mixed"\nverify = false\n'
-                            f'[axes]\n"maneuver.speed" = [{11 + kills}.0]\n')
+    path = _files(
+        tmp_path,
+        f'study = "study.toml"\nfidelity = "mixed"\nverify = false\n'
+        f'[axes]\n"maneuver.speed" = [{11 + kills}.0]\n',
+    )
     out = tmp_path / 'out'
     lines: list[str] = []
     done: dict = {}
-    runner = threading.Thread(target=lambda: done.update(outcome=run_sweep(
-        path, out, scheduler=address, log=lines.append)))
+    runner = threading.Thread(
+        target=lambda: done.update(
+            outcome=run_sweep(path, out, scheduler=address, log=lines.append)
+        )
+    )
     runner.start()
     killed = _kill_running_worker(client, out, kills, runner)
     runner.join(timeout=120)
@@ -426,9 +528,10 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
     else:  # died twice: recorded as failed with the cause
         assert done['outcome'].exit_code == 1, err
         assert rec['state'] == 'failed' and rec['error'].startswith(
-            'KilledWorker: its worker process died on each of 2 attempts')
+            'KilledWorker: its worker process died on each of 2 attempts'
+        )
         assert rec['attempts'] == 2
-        assert f"failed: {rec['name']}: KilledWorker" in err
+        assert f'failed: {rec["name"]}: KilledWorker' in err
     client.wait_for_workers(2, timeout=60)  # the nannies restarted them
 
 
@@ -437,6 +540,7 @@ def test_the_scheduler_counts_a_tasks_dead_workers(cluster):
     """A worker killed before a task could say it started still counts as an attempt:
     the record's count comes from the scheduler's own (``_deaths``)."""
     from suspopt.sweep import _deaths
+
     address, client = cluster
     fut = client.submit(time.sleep, 4, pure=False)  # short: a running rerun holds up
     # the cluster's shutdown (a cancelled task still runs to its end in its thread)
@@ -461,6 +565,7 @@ def _store_many(key: str, barrier, rounds: int, cache: str, seed: int) -> None:
     (the barrier), and check the file right after: always a whole coloring."""
     os.environ['SUSPOPT_CACHE_DIR'] = cache
     from suspopt import cache as cc
+
     coloring = _coloring(seed)
     for _ in range(rounds):
         barrier.wait()
@@ -474,11 +579,11 @@ def _coloring(seed: int):
     import scipy.sparse as sp
 
     from suspopt.driver.sparsity import Coloring, color_columns
+
     rng = np.random.default_rng(seed)
     pattern = sp.csc_matrix(rng.random((300, 300)) < 0.02)
     coo = pattern.tocoo()
-    return Coloring(shape=(300, 300), rows=coo.row, cols=coo.col,
-                    colors=color_columns(pattern))
+    return Coloring(shape=(300, 300), rows=coo.row, cols=coo.col, colors=color_columns(pattern))
 
 
 @pytest.mark.slow
@@ -486,11 +591,14 @@ def test_coloring_cache_concurrent_stores_are_atomic(tmp_path):
     """Two processes store the same key at the same moment, many times, and a third
     reads it all the while: it is always a whole, loadable coloring, never a partial one."""
     from suspopt import cache as cc
+
     ctx = mp.get_context('spawn')
     barrier = ctx.Barrier(2)
     key, rounds = 'f' * 32, 30
-    writers = [ctx.Process(target=_store_many, args=(key, barrier, rounds, str(tmp_path), s))
-               for s in (1, 2)]
+    writers = [
+        ctx.Process(target=_store_many, args=(key, barrier, rounds, str(tmp_path), s))
+        for s in (1, 2)
+    ]
     for w in writers:
         w.start()
     path = tmp_path / 'colorings' / f'{key}.npz'

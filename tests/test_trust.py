@@ -6,6 +6,7 @@ exit code, the one-line message naming the key, the files left behind. Signals a
 to real processes. Grids are coarse and verification is skipped wherever the promise is
 not about verification.
 """
+
 from __future__ import annotations
 
 import ast
@@ -67,65 +68,91 @@ def _env(**extra: str) -> dict[str, str]:
 
 def _road_csv(path: Path) -> Path:
     """A measured-road stand-in: a 3 cm, 2 m long 1-cos bump at 8 m; 60 m of data."""
+
     def h(s: float) -> float:
         return 0.015 * (1.0 - math.cos(math.pi * (s - 8.0))) if 8.0 <= s <= 10.0 else 0.0
+
     rows = ['distance,height'] + [f'{s:g},{h(s):.6f}' for s in (i * 0.25 for i in range(241))]
     return _write(path, '\n'.join(rows) + '\n')
 
 
 # ------------------------------------------------------------------ silently wrong results
-@pytest.mark.parametrize('toml, args, cause', [
-    ('', ['--segments', '1'], 'of the wheel hop'),  # converged to f = 0.000000 before
-    ('[maneuver]\nspeed = 100.0\n', [], 'bumps of 2 m at 100 m/s'),  # km/h typed as m/s
-], ids=['one segment', 'speed 100'])
+@pytest.mark.parametrize(
+    'toml, args, cause',
+    [
+        ('', ['--segments', '1'], 'of the wheel hop'),  # converged to f = 0.000000 before
+        ('[maneuver]\nspeed = 100.0\n', [], 'bumps of 2 m at 100 m/s'),  # km/h typed as m/s
+    ],
+    ids=['one segment', 'speed 100'],
+)
 def test_a_grid_that_cannot_resolve_the_motion_is_refused(tmp_path, capsys, toml, args, cause):
     study = _write(tmp_path / 'study.toml', toml)
-    for command in (['evaluate', '--fidelity', 'low'],
-                    ['optimize', '--fidelity', 'low', '--out', tmp_path / 'out']):
+    for command in (
+        ['evaluate', '--fidelity', 'low'],
+        ['optimize', '--fidelity', 'low', '--out', tmp_path / 'out'],
+    ):
         code, _, err = _run([*command, '--config', study, *args], capsys)
-        line, = _errors(err)
+        (line,) = _errors(err)
         assert code == 2 and 'transcription.segments' in line and cause in line, line
         assert 'too coarse' in line and '"auto" gives' in line
     assert not (tmp_path / 'out').exists()  # before any work
     # segments = "auto" sizes the grid instead
     from suspopt.transcription.grid import grid_problems
+
     data = {**tomllib.loads(toml), 'transcription': {'segments': 'auto'}}
     cfg = config_from_dict(data)
-    sc, = cfg.scenarios()
+    (sc,) = cfg.scenarios()
     assert grid_problems(cfg, sc, 'transcription.segments') == [] and sc.segments >= 90
 
 
 def test_a_grid_too_coarse_for_the_horizon_is_flagged_not_verified(tmp_path, capsys):
     """The paper's car and bumps over 20 s on the default 80 segments: enough nodes per
     wheel-hop period to be accepted, too few to agree with time marching: exit 3."""
-    study = _write(tmp_path / 'study.toml', '[maneuver]\nhorizon = 20.0\n'
-                   '[objective]\nnormalization = "paper"\n')
+    study = _write(
+        tmp_path / 'study.toml',
+        '[maneuver]\nhorizon = 20.0\n[objective]\nnormalization = "paper"\n',
+    )
     code, out, err = _run(['evaluate', '--fidelity', 'low', '--config', study], capsys)
     res = json.loads(out)
     assert code == 3 and res['verified'] is False and res['success'] is True
     assert res['verification']['max_rel_diff'] > res['verification']['tolerance']
-    line, = _errors(err)
+    (line,) = _errors(err)
     assert 'NOT verified' in line and '"auto"' in line
 
 
-@pytest.mark.parametrize('toml, key', [
-    ('[vehicle.front]\nwheel_mass = 1.2\n', 'vehicle.front.wheel_mass'),   # typo for 120
-    ('[vehicle.rear]\ntyre_stiffness = 2e9\n', 'vehicle.rear.tyre_stiffness'),
-    ('[maneuver]\nspeed = 1000.0\n', 'maneuver.speed'),
-    ('[maneuver]\nhorizon = 1e6\n', 'maneuver.horizon'),
-    ('[transcription]\nsegments = 100000\n', 'transcription.segments'),
-    ('[transcription]\nsegments = "auto"\n[maneuver]\nhorizon = 500.0\n',
-     'transcription.segments'),  # auto-sized beyond what can be built
-    ('[design.c_S1]\nupper = 5e9\n', 'design.c_S1.upper'),
-    ('[road]\nprofile = "bump"\nheight = 5.0\n', 'road.height'),  # 5 cm typed as 5 m
-], ids=['wheel 1.2 kg', 'tyre', 'speed', 'horizon 1e6 s', 'segments 100000', 'auto 500 s',
-        'damping', 'bump 5 m'])
+@pytest.mark.parametrize(
+    'toml, key',
+    [
+        ('[vehicle.front]\nwheel_mass = 1.2\n', 'vehicle.front.wheel_mass'),  # typo for 120
+        ('[vehicle.rear]\ntyre_stiffness = 2e9\n', 'vehicle.rear.tyre_stiffness'),
+        ('[maneuver]\nspeed = 1000.0\n', 'maneuver.speed'),
+        ('[maneuver]\nhorizon = 1e6\n', 'maneuver.horizon'),
+        ('[transcription]\nsegments = 100000\n', 'transcription.segments'),
+        (
+            '[transcription]\nsegments = "auto"\n[maneuver]\nhorizon = 500.0\n',
+            'transcription.segments',
+        ),  # auto-sized beyond what can be built
+        ('[design.c_S1]\nupper = 5e9\n', 'design.c_S1.upper'),
+        ('[road]\nprofile = "bump"\nheight = 5.0\n', 'road.height'),  # 5 cm typed as 5 m
+    ],
+    ids=[
+        'wheel 1.2 kg',
+        'tyre',
+        'speed',
+        'horizon 1e6 s',
+        'segments 100000',
+        'auto 500 s',
+        'damping',
+        'bump 5 m',
+    ],
+)
 def test_absurd_magnitudes_are_refused_at_once(tmp_path, capsys, toml, key):
     study = _write(tmp_path / 'study.toml', toml)
     t0 = time.perf_counter()
-    code, _, err = _run(['evaluate', '--fidelity', 'low', '--method', 'time-marching',
-                         '--config', study], capsys)
-    line, = _errors(err)  # one line: the cause, not its consequences
+    code, _, err = _run(
+        ['evaluate', '--fidelity', 'low', '--method', 'time-marching', '--config', study], capsys
+    )
+    (line,) = _errors(err)  # one line: the cause, not its consequences
     assert code == 2 and f'{study}: {key}: ' in line, line
     assert time.perf_counter() - t0 < 10.0  # no minutes-long hang
 
@@ -143,19 +170,33 @@ def test_a_tyre_load_pointing_down_or_an_unstable_linkage_is_refused(tmp_path, c
     down = _mechanism(tmp_path, 'down', ('direction = [0.0, 1.0]', 'direction = [0.0, -1.0]'))
     # the spring mount level with the spring point: the spring does not deflect with the
     # wheel travel at the reference pose, zero wheel rate
-    flat = _mechanism(tmp_path, 'flat', ('point = [0.27, 0.5]', 'point = [0.0, 0.2]'),
-                      ('type = "linear_spring_damper"', 'type = "spring_damper"'),
-                      ('axis = [0.0, -1.0]     # fixed in the frame, from the mount down to '
-                       'the spring point\n', ''))
-    for mech, axle, words in ((down, 'rear', ["loads[0].direction", 'points down',
-                                              "(load 'tyre'"]),
-                              (flat, 'front', ['suspension.spring', 'wheel rate 0 N/m',
-                                               'statically unstable', "(force 'spring')"])):
-        study = _write(tmp_path / f'{mech.stem}.study.toml',
-                       f'[vehicle.{axle}]\nmechanism = "{mech.name}"\n')
-        code, _, err = _run(['evaluate', '--fidelity', 'low', '--method', 'time-marching',
-                             '--config', study], capsys)
-        line, = _errors(err)
+    flat = _mechanism(
+        tmp_path,
+        'flat',
+        ('point = [0.27, 0.5]', 'point = [0.0, 0.2]'),
+        ('type = "linear_spring_damper"', 'type = "spring_damper"'),
+        (
+            'axis = [0.0, -1.0]     # fixed in the frame, from the mount down to '
+            'the spring point\n',
+            '',
+        ),
+    )
+    for mech, axle, words in (
+        (down, 'rear', ['loads[0].direction', 'points down', "(load 'tyre'"]),
+        (
+            flat,
+            'front',
+            ['suspension.spring', 'wheel rate 0 N/m', 'statically unstable', "(force 'spring')"],
+        ),
+    ):
+        study = _write(
+            tmp_path / f'{mech.stem}.study.toml', f'[vehicle.{axle}]\nmechanism = "{mech.name}"\n'
+        )
+        code, _, err = _run(
+            ['evaluate', '--fidelity', 'low', '--method', 'time-marching', '--config', study],
+            capsys,
+        )
+        (line,) = _errors(err)
         assert code == 2 and f'vehicle.{axle}.mechanism: {mech}' in line
         assert all(w in line for w in words), line
     code, _, err = _run(['kinematics', down, '--out', tmp_path / 'kin'], capsys)
@@ -163,18 +204,22 @@ def test_a_tyre_load_pointing_down_or_an_unstable_linkage_is_refused(tmp_path, c
 
 
 # ------------------------------------------------------------------ IPOPT options
-@pytest.mark.parametrize('option, words', [
-    ('hessian_approximation = "exact"', "does not compute; use 'limited-memory'"),
-    ('linear_solver = "ma27"', "IPOPT cannot run with 'ma27'"),  # not in the bundled IPOPT
-    ('output_file = "no-such-dir/ipopt.out"', 'directory no-such-dir does not exist'),
-    ('max_iter = 3', 'set optimizer.max_iter instead'),
-], ids=['exact Hessian', 'linear solver', 'output file', 'driver option'])
-def test_ipopt_options_that_would_fail_later_are_refused_up_front(tmp_path, capsys, option,
-                                                                  words):
+@pytest.mark.parametrize(
+    'option, words',
+    [
+        ('hessian_approximation = "exact"', "does not compute; use 'limited-memory'"),
+        ('linear_solver = "ma27"', "IPOPT cannot run with 'ma27'"),  # not in the bundled IPOPT
+        ('output_file = "no-such-dir/ipopt.out"', 'directory no-such-dir does not exist'),
+        ('max_iter = 3', 'set optimizer.max_iter instead'),
+    ],
+    ids=['exact Hessian', 'linear solver', 'output file', 'driver option'],
+)
+def test_ipopt_options_that_would_fail_later_are_refused_up_front(tmp_path, capsys, option, words):
     study = _write(tmp_path / 'study.toml', f'[optimizer.options]\n{option}\n')
-    code, _, err = _run(['optimize', '--fidelity', 'low', '--config', study,
-                         '--out', tmp_path / 'out'], capsys)
-    line, = _errors(err)
+    code, _, err = _run(
+        ['optimize', '--fidelity', 'low', '--config', study, '--out', tmp_path / 'out'], capsys
+    )
+    (line,) = _errors(err)
     assert code == 2 and f'optimizer.options.{option.split()[0]}: ' in line and words in line
     assert not (tmp_path / 'out').exists()
 
@@ -188,10 +233,13 @@ def test_a_road_csv_with_a_byte_order_mark_keeps_its_first_row(tmp_path, capsys)
     assert s[0] == 0.0 and len(s) == 5  # the first row is data, not a header
     path.write_bytes(codecs.BOM_UTF8 + b'distance,height\n' + rows.encode())
     assert len(read_road_csv(path)[0]) == 5  # a header with a mark is still a header
-    study = _write(tmp_path / 'study.toml', '[road]\nprofile = "csv"\nfile = "road.csv"\n'
-                   '[objective]\nnormalization = "paper"\n')
-    code, out, err = _run(['evaluate', '--fidelity', 'low', '--method', 'time-marching',
-                           '--config', study], capsys)
+    study = _write(
+        tmp_path / 'study.toml',
+        '[road]\nprofile = "csv"\nfile = "road.csv"\n[objective]\nnormalization = "paper"\n',
+    )
+    code, out, err = _run(
+        ['evaluate', '--fidelity', 'low', '--method', 'time-marching', '--config', study], capsys
+    )
     assert code == 0 and json.loads(out)['success'], err
     _write(path, '0,0,x\n1\n2,0\n3,0\n60,0\n')  # a number in the first row: it is data
     code, _, err = _run(['evaluate', '--fidelity', 'low', '--config', study], capsys)
@@ -204,41 +252,62 @@ def _fake_study(out: Path, evaluations: dict | None = None) -> None:
     cfg = config_from_dict({})
     out.mkdir(parents=True, exist_ok=True)
     scales = dict.fromkeys(cfg.terms(), 1.0)
-    (out / 'study.json').write_text(json.dumps({
-        'config': cfg.to_dict(), 'scales': [scales], 'terms': list(cfg.terms()),
-        'design_names': list(cfg.design_names()), 'normalization': 'reference',
-        'steps': {}, 'evaluations': evaluations or {}, 'complete': True}))
+    (out / 'study.json').write_text(
+        json.dumps(
+            {
+                'config': cfg.to_dict(),
+                'scales': [scales],
+                'terms': list(cfg.terms()),
+                'design_names': list(cfg.design_names()),
+                'normalization': 'reference',
+                'steps': {},
+                'evaluations': evaluations or {},
+                'complete': True,
+            }
+        )
+    )
 
 
 def test_report_refuses_a_damaged_results_directory(tmp_path, capsys):
     cases = {'not a directory': ('x', None), 'empty': ('', None)}
     (tmp_path / 'x').write_text('')
-    for name, text in (('garbage', '{"config": '), ('incomplete', '{}'),
-                       ('wrong types', '{"config": 1, "scales": 2, "terms": 3, '
-                                       '"design_names": 4, "normalization": 5}')):
+    for name, text in (
+        ('garbage', '{"config": '),
+        ('incomplete', '{}'),
+        (
+            'wrong types',
+            '{"config": 1, "scales": 2, "terms": 3, "design_names": 4, "normalization": 5}',
+        ),
+    ):
         (tmp_path / name).mkdir()
         (tmp_path / name / 'study.json').write_text(text)
         cases[name] = (name, None)
     (tmp_path / 'run').mkdir()
     (tmp_path / 'run' / 'result.json').write_text('{"fidelity": "low"}')
     cases['incomplete run'] = ('run', None)
-    ok = {'success': True, 'objective': 1.0, 'design': config_from_dict({}).design.initial(),
-          'terms': dict.fromkeys(config_from_dict({}).terms(), 1.0), 'verified': None}
+    ok = {
+        'success': True,
+        'objective': 1.0,
+        'design': config_from_dict({}).design.initial(),
+        'terms': dict.fromkeys(config_from_dict({}).terms(), 1.0),
+        'verified': None,
+    }
     _fake_study(tmp_path / 'recorder', {'low/initial': ok})
     (tmp_path / 'recorder' / 'low.sql').write_bytes(b'not a database' * 100)
     cases['damaged recorder'] = ('recorder', 'damaged case recorder')
     for name, (d, words) in cases.items():
         code, _, err = _run(['report', tmp_path / d], capsys)
-        line, = _errors(err)
+        (line,) = _errors(err)
         assert code == 2, (name, err)
         assert words is None or words in line
 
 
 def test_an_unwritable_or_full_out_is_exit_4(tmp_path, capsys, monkeypatch):
     (tmp_path / 'file').write_text('')
-    code, _, err = _run(['optimize', '--fidelity', 'low', '--out', tmp_path / 'file' / 'out'],
-                        capsys)
-    line, = _errors(err)
+    code, _, err = _run(
+        ['optimize', '--fidelity', 'low', '--out', tmp_path / 'file' / 'out'], capsys
+    )
+    (line,) = _errors(err)
     assert code == 4 and 'cannot create' in line
 
     import suspopt.results
@@ -247,26 +316,28 @@ def test_an_unwritable_or_full_out_is_exit_4(tmp_path, capsys, monkeypatch):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(suspopt.results.json, 'dump', full)  # the disk fills up
-    code, _, err = _run(['study', *GRID, '--no-verify', '--quiet', '--out', tmp_path / 'full'],
-                        capsys)
-    line, = _errors(err)
+    code, _, err = _run(
+        ['study', *GRID, '--no-verify', '--quiet', '--out', tmp_path / 'full'], capsys
+    )
+    (line,) = _errors(err)
     assert code == 4 and os.strerror(errno.ENOSPC) in line and 'study.json' in line
 
 
-def test_overwrite_leaves_nothing_of_an_earlier_run_when_the_new_one_fails_early(
-        tmp_path, capsys):
+def test_overwrite_leaves_nothing_of_an_earlier_run_when_the_new_one_fails_early(tmp_path, capsys):
     out = tmp_path / 'study'
     _fake_study(out)
     for name in ('table.md', 'time_marching.npz', 'low.sql', 'study.json.x1y2.tmp'):
         (out / name).write_text('earlier run')
     (out / 'figures').mkdir()
     (out / 'figures' / 'road.png').write_text('earlier run')
-    (out / 'notes.txt').write_text('the user\'s own file')
+    (out / 'notes.txt').write_text("the user's own file")
     # bumps the car never reaches: the reference normalization fails after --overwrite
-    study = _write(tmp_path / 'study.toml', '[road]\nprofile = "two_bumps"\n'
-                   'starts = [200.0, 205.0]\n')
-    code, _, err = _run(['study', '--config', study, '--out', out, '--overwrite', '--quiet'],
-                        capsys)
+    study = _write(
+        tmp_path / 'study.toml', '[road]\nprofile = "two_bumps"\nstarts = [200.0, 205.0]\n'
+    )
+    code, _, err = _run(
+        ['study', '--config', study, '--out', out, '--overwrite', '--quiet'], capsys
+    )
     assert code == 2 and 'objective.normalization' in _errors(err)[0]
     assert sorted(p.name for p in out.iterdir()) == ['notes.txt']
 
@@ -276,18 +347,50 @@ def test_held_variables_failed_solves_and_kept_inputs(tmp_path, capsys):
     never reported as a score (result.json, summary, table, CLI line); ``report`` renders
     from the run's own copy of the road CSV after the original is gone."""
     road = _road_csv(tmp_path / 'road.csv')
-    study = _write(tmp_path / 'study.toml', f'[road]\nprofile = "csv"\nfile = "{road.name}"\n'
-                   '[design.k_S1]\noptimize = false\n[objective]\nnormalization = "paper"\n')
+    study = _write(
+        tmp_path / 'study.toml',
+        f'[road]\nprofile = "csv"\nfile = "{road.name}"\n'
+        '[design.k_S1]\noptimize = false\n[objective]\nnormalization = "paper"\n',
+    )
     out = tmp_path / 'run'
-    code, _, err = _run(['optimize', '--fidelity', 'low', '--config', study, *CSV_GRID,
-                         '--start', 'k_S1=35000', '--out', out], capsys)
-    line, = _errors(err)
+    code, _, err = _run(
+        [
+            'optimize',
+            '--fidelity',
+            'low',
+            '--config',
+            study,
+            *CSV_GRID,
+            '--start',
+            'k_S1=35000',
+            '--out',
+            out,
+        ],
+        capsys,
+    )
+    (line,) = _errors(err)
     assert code == 2 and '--start: k_S1' in line and 'optimize = false' in line
     assert not out.exists()
-    code, stdout, err = _run(['optimize', '--fidelity', 'low', '--config', study, *CSV_GRID,
-                              '--start', 'c_S1=2000', '--max-iter', '2', '--no-verify',
-                              '--quiet', '--out', out], capsys)
-    line, = _errors(err)
+    code, stdout, err = _run(
+        [
+            'optimize',
+            '--fidelity',
+            'low',
+            '--config',
+            study,
+            *CSV_GRID,
+            '--start',
+            'c_S1=2000',
+            '--max-iter',
+            '2',
+            '--no-verify',
+            '--quiet',
+            '--out',
+            out,
+        ],
+        capsys,
+    )
+    (line,) = _errors(err)
     assert code == 1 and 'did not converge' in line
     res = json.loads((out / 'result.json').read_text())
     assert res['success'] is False and res['objective'] is None and res['terms'] is None
@@ -311,18 +414,34 @@ def test_held_variables_failed_solves_and_kept_inputs(tmp_path, capsys):
 
 def test_a_failed_pareto_point_is_not_a_point_of_the_front():
     from suspopt.report import pareto_markdown
-    front = {'fidelity': 'low', 'normalization': 'reference', 'design_names': ['k_S1'],
-             'points': [{'alpha': 0.5, 'design': {'k_S1': 2e4}, 'comfort': None,
-                         'road_holding': None, 'comfort_at_stop': 0.0,
-                         'road_holding_at_stop': 0.0, 'objective': None, 'success': False,
-                         'status': 'Maximum_Iterations_Exceeded', 'iterations': 3}]}
+
+    front = {
+        'fidelity': 'low',
+        'normalization': 'reference',
+        'design_names': ['k_S1'],
+        'points': [
+            {
+                'alpha': 0.5,
+                'design': {'k_S1': 2e4},
+                'comfort': None,
+                'road_holding': None,
+                'comfort_at_stop': 0.0,
+                'road_holding_at_stop': 0.0,
+                'objective': None,
+                'success': False,
+                'status': 'Maximum_Iterations_Exceeded',
+                'iterations': 3,
+            }
+        ],
+    }
     row = pareto_markdown(front).splitlines()[4]
     assert row.startswith('| 0.500 | 20000 | — | — | — |') and 'NOT converged' in row
 
 
 # ------------------------------------------------------------------ interruptions
-def test_an_interrupt_just_after_ipopts_last_iteration_keeps_the_result(tmp_path, capsys,
-                                                                       monkeypatch):
+def test_an_interrupt_just_after_ipopts_last_iteration_keeps_the_result(
+    tmp_path, capsys, monkeypatch
+):
     import cyipopt
 
     import suspopt.driver.ipopt
@@ -335,8 +454,20 @@ def test_an_interrupt_just_after_ipopts_last_iteration_keeps_the_result(tmp_path
 
     monkeypatch.setattr(suspopt.driver.ipopt.cyipopt, 'Problem', LateInterrupt)
     out = tmp_path / 'run'
-    code, _, err = _run(['optimize', '--fidelity', 'low', *GRID, '--normalization', 'paper',
-                         '--quiet', '--out', out], capsys)
+    code, _, err = _run(
+        [
+            'optimize',
+            '--fidelity',
+            'low',
+            *GRID,
+            '--normalization',
+            'paper',
+            '--quiet',
+            '--out',
+            out,
+        ],
+        capsys,
+    )
     assert code == 130 and 'interrupted' in err and BUG not in err
     res = json.loads((out / 'result.json').read_text())
     assert res['success'] is True and res['interrupted'] is True
@@ -344,13 +475,13 @@ def test_an_interrupt_just_after_ipopts_last_iteration_keeps_the_result(tmp_path
     assert res['verified'] is None and 'interrupted' in res['verification']['note']
 
 
-def test_a_study_interrupted_after_a_step_converged_keeps_that_step(tmp_path, capsys,
-                                                                     monkeypatch):
+def test_a_study_interrupted_after_a_step_converged_keeps_that_step(tmp_path, capsys, monkeypatch):
     """Ctrl-C as IPOPT returns from the low-fidelity optimization (the study's second
     solve): the converged step is kept, marked not checked; the study is not complete."""
     import cyipopt
 
     import suspopt.driver.ipopt
+
     solves = []
 
     class LateInterrupt(cyipopt.Problem):
@@ -363,8 +494,9 @@ def test_a_study_interrupted_after_a_step_converged_keeps_that_step(tmp_path, ca
 
     monkeypatch.setattr(suspopt.driver.ipopt.cyipopt, 'Problem', LateInterrupt)
     out = tmp_path / 'study'
-    code, _, err = _run(['study', *GRID, '--normalization', 'paper', '--quiet', '--out', out],
-                        capsys)
+    code, _, err = _run(
+        ['study', *GRID, '--normalization', 'paper', '--quiet', '--out', out], capsys
+    )
     assert code == 130 and BUG not in err and solves == [0, 0]
     data = json.loads((out / 'study.json').read_text())
     assert data['complete'] is False and list(data['evaluations']) == ['low/initial']
@@ -401,10 +533,23 @@ def test_ctrl_c_during_a_study_evaluation_and_a_second_run_on_its_out(tmp_path, 
     of the mixed-fidelity model stops it (exit 130) with ``complete`` false and nothing
     unconverged kept."""
     out = tmp_path / 'study'
-    study = subprocess.Popen(SUSPOPT + ['study', '--segments', '24', '--no-verify',
-                                        '--normalization', 'paper', '--out', str(out)],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                             env=_env())
+    study = subprocess.Popen(
+        SUSPOPT
+        + [
+            'study',
+            '--segments',
+            '24',
+            '--no-verify',
+            '--normalization',
+            'paper',
+            '--out',
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(),
+    )
     lines: list[str] = []
     try:
         _wait_for(study, lines, 'results in')
@@ -432,18 +577,33 @@ def test_ctrl_c_during_a_study_evaluation_and_a_second_run_on_its_out(tmp_path, 
     assert not (out / 'table.md').exists()
 
 
-def test_sigterm_during_pareto_leaves_no_scratch_and_report_uses_the_copies(tmp_path,
-                                                                           capsys):
+def test_sigterm_during_pareto_leaves_no_scratch_and_report_uses_the_copies(tmp_path, capsys):
     scratch = tmp_path / 'tmp'
     scratch.mkdir()
     road = _road_csv(tmp_path / 'road.csv')
-    study = _write(tmp_path / 'study.toml', f'[road]\nprofile = "csv"\nfile = "{road}"\n'
-                   '[objective]\nnormalization = "paper"\n')
+    study = _write(
+        tmp_path / 'study.toml',
+        f'[road]\nprofile = "csv"\nfile = "{road}"\n[objective]\nnormalization = "paper"\n',
+    )
     out = tmp_path / 'pareto'
-    proc = subprocess.Popen(SUSPOPT + ['pareto', '--points', '3', *CSV_GRID, '--no-verify',
-                                       '--config', str(study), '--out', str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=_env(TMPDIR=str(scratch)))
+    proc = subprocess.Popen(
+        SUSPOPT
+        + [
+            'pareto',
+            '--points',
+            '3',
+            *CSV_GRID,
+            '--no-verify',
+            '--config',
+            str(study),
+            '--out',
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(TMPDIR=str(scratch)),
+    )
     lines: list[str] = []
     try:
         _wait_for(proc, lines, r'comfort share 0\.000', r'^\s+1 ')
@@ -464,21 +624,39 @@ def test_sigterm_during_pareto_leaves_no_scratch_and_report_uses_the_copies(tmp_
 
 # ------------------------------------------------------------------ random bad input
 BASE_STUDY = {
-    'vehicle': {'front': {'wheel_mass': 120.0, 'tyre_stiffness': 200000.0,
-                          'mechanism': 'mechanism.toml'},
-                'rear': {'axle_position': -1.713, 'mechanism': 'double_wishbone'}},
+    'vehicle': {
+        'front': {'wheel_mass': 120.0, 'tyre_stiffness': 200000.0, 'mechanism': 'mechanism.toml'},
+        'rear': {'axle_position': -1.713, 'mechanism': 'double_wishbone'},
+    },
     'maneuver': {'speed': 10.0, 'horizon': 1.0},
     'road': {'profile': 'bump', 'height': 0.05, 'length': 2.0, 'start': 1.0},
-    'design': {'k_S1': {'initial': 30000.0, 'lower': 10000.0, 'upper': 50000.0},
-               'c_S2': {'initial': 3000.0, 'lower': 1000.0, 'upper': 5000.0,
-                        'optimize': True}},
+    'design': {
+        'k_S1': {'initial': 30000.0, 'lower': 10000.0, 'upper': 50000.0},
+        'c_S2': {'initial': 3000.0, 'lower': 1000.0, 'upper': 5000.0, 'optimize': True},
+    },
     'objective': {'normalization': 'paper', 'weights': {'heave': 0.25, 'pitch': 0.25}},
     'transcription': {'segments': 'auto', 'order': 5},
     'optimizer': {'max_iter': 50, 'options': {'mu_strategy': 'adaptive'}},
     'multibody': {'fd_step': 1e-6},
 }
-BAD_VALUES = ['text', '', -1.0, 0.0, -7, 0, math.nan, math.inf, -math.inf, 1e300, 1e-300,
-              True, [1.0, 2.0], [], {'x': 1.0}, {}]
+BAD_VALUES = [
+    'text',
+    '',
+    -1.0,
+    0.0,
+    -7,
+    0,
+    math.nan,
+    math.inf,
+    -math.inf,
+    1e300,
+    1e-300,
+    True,
+    [1.0, 2.0],
+    [],
+    {'x': 1.0},
+    {},
+]
 #: an error line: "[<file>: ]<key>: ...", the key a dotted path with indices
 KEY = re.compile(r'^[A-Za-z_][\w-]*(\[\d+\])?(\.[\w-]+(\[\d+\])?)*( \([^)]*\))?: ')
 
@@ -499,8 +677,13 @@ def _key(k: str) -> str:
 def _paths(node, prefix=()):
     """Every place in a nested structure: (path, value)."""
     yield prefix, node
-    items = node.items() if isinstance(node, dict) else \
-        enumerate(node) if isinstance(node, list) else ()
+    items = (
+        node.items()
+        if isinstance(node, dict)
+        else enumerate(node)
+        if isinstance(node, list)
+        else ()
+    )
     for k, v in items:
         yield from _paths(v, prefix + (k,))
 
@@ -508,6 +691,7 @@ def _paths(node, prefix=()):
 def _mutate(data, draw, st):
     """One random edit: a wrong value, a missing or renamed key, or swapped sections."""
     import copy
+
     data = copy.deepcopy(data)
     places = [p for p, _ in _paths(data) if p]
     path = draw(st.sampled_from(places))
@@ -521,8 +705,7 @@ def _mutate(data, draw, st):
     elif kind == 'delete':
         del parent[last]
     elif kind == 'rename':
-        parent[last[:-1] + last[-1].upper() if len(last) > 1 else last + 'x'] = \
-            parent.pop(last)
+        parent[last[:-1] + last[-1].upper() if len(last) > 1 else last + 'x'] = parent.pop(last)
     else:
         other = draw(st.sampled_from(sorted(parent)))
         parent[last], parent[other] = parent[other], parent[last]
@@ -535,8 +718,9 @@ def _check_evaluate(tmp: Path, study: dict, mechanism: dict) -> None:
     path.write_text(_toml(study))
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(['evaluate', '--fidelity', 'low', '--method', 'time-marching',
-                     '--config', str(path)])
+        code = main(
+            ['evaluate', '--fidelity', 'low', '--method', 'time-marching', '--config', str(path)]
+        )
     stderr = err.getvalue()
     assert code in (0, 2), (code, stderr, _toml(study), _toml(mechanism))
     if code == 0:
@@ -559,9 +743,13 @@ def test_random_bad_study_and_mechanism_files_never_reach_a_bug(tmp_path):
     mechanism = tomllib.loads(mechanism_path('double_wishbone').read_text())
     _check_evaluate(tmp_path, BASE_STUDY, mechanism)  # the base files run
 
-    @settings(max_examples=int(os.environ.get('SUSPOPT_HYPOTHESIS_EXAMPLES', 20)),
-              deadline=None, derandomize=True, database=None,
-              suppress_health_check=[HealthCheck.too_slow])
+    @settings(
+        max_examples=int(os.environ.get('SUSPOPT_HYPOTHESIS_EXAMPLES', 20)),
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow],
+    )
     @given(st.data())
     def check(data):
         study, mech = BASE_STUDY, mechanism
@@ -583,8 +771,9 @@ def test_the_readme_python_api_example_runs(tmp_path, monkeypatch):
     """README.md's "Python API" example (a ```python block between the markers) runs as
     printed."""
     text = (ROOT / 'README.md').read_text()
-    assert README_BEGIN in text and README_END in text, \
+    assert README_BEGIN in text and README_END in text, (
         f'README.md has no Python API example between {README_BEGIN} and {README_END}'
+    )
     block = text.split(README_BEGIN, 1)[1].split(README_END, 1)[0]
     assert '```python' in block, 'the Python API example is a ```python block'
     code = block.split('```python', 1)[1].split('```', 1)[0]
@@ -596,15 +785,20 @@ def test_report_does_not_import_study():
     """report renders results; study runs them and calls report (no import cycle)."""
     for module in ('report', 'results'):
         tree = ast.parse((ROOT / 'suspopt' / f'{module}.py').read_text())
-        imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | \
-            {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
+            a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names
+        }
         assert not {'suspopt.study', 'suspopt.pareto'} & imported, module
 
 
 def test_nothing_a_user_receives_points_into_the_projects_shared_folder():
     files = [p for p in (ROOT / 'suspopt').rglob('*') if p.suffix in ('.py', '.toml')]
-    files += [p for d in ('docs', 'examples') for p in (ROOT / d).rglob('*')
-              if p.suffix in ('.md', '.toml', '.py', '.txt')]
+    files += [
+        p
+        for d in ('docs', 'examples')
+        for p in (ROOT / d).rglob('*')
+        if p.suffix in ('.md', '.toml', '.py', '.txt')
+    ]
     files += [ROOT / 'README.md', ROOT / 'pyproject.toml']
     bad = [str(p.relative_to(ROOT)) for p in files if '../shared' in p.read_text()]
     assert not bad, f'"../shared" paths in {bad}'
@@ -616,10 +810,12 @@ def test_a_figure_is_written_whole_or_not_at_all(tmp_path):
     leaves a 124-byte partial PNG in place of the old file) leaves the previous file as
     it was and no temporary file; a good one replaces it with a whole PNG."""
     import matplotlib
+
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
     from suspopt.figures import save_figure
+
     path = tmp_path / 'figure.png'
     path.write_bytes(b'the previous figure')
     fig, ax = plt.subplots()
@@ -640,11 +836,13 @@ def test_results_are_written_atomically_with_the_usual_permissions(tmp_path):
     import stat
 
     import matplotlib
+
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
     from suspopt.figures import save_figure
     from suspopt.results import NEW_FILE_MODE, write_json, write_text
+
     mask = os.umask(0o022)
     os.umask(mask)
     assert NEW_FILE_MODE == 0o666 & ~mask

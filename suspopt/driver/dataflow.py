@@ -11,6 +11,7 @@ total derivatives (:mod:`suspopt.driver.propagation`) both walk this graph, in t
 topological order of its strongly connected components, from the design variables to the
 responses. The declared patterns and the connections come from :mod:`structure`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -69,10 +70,12 @@ def data_flow(problem: om.Problem, responses: list[str]) -> DataFlow:
     (source output names)."""
     model = problem.model
     sources = structure.input_sources(model)
-    meta_out = model.get_io_metadata(iotypes='output', metadata_keys=['size', 'units'],
-                                     return_rel_names=False)
-    meta_in = model.get_io_metadata(iotypes='input', metadata_keys=['units'],
-                                    return_rel_names=False)
+    meta_out = model.get_io_metadata(
+        iotypes='output', metadata_keys=['size', 'units'], return_rel_names=False
+    )
+    meta_in = model.get_io_metadata(
+        iotypes='input', metadata_keys=['units'], return_rel_names=False
+    )
     sizes = {name: int(m['size']) for name, m in meta_out.items()}
 
     deps: dict[str, list[Edge]] = {}
@@ -94,9 +97,18 @@ def data_flow(problem: om.Problem, responses: list[str]) -> DataFlow:
                 continue
             if sj.rows.size == 0:
                 continue
-            deps.setdefault(sj.of, []).append(Edge(
-                of=sj.of, src=src, rows=sj.rows, cols=cols, shape=(sj.shape[0], sizes[src]),
-                factor=factor, subjac=sj, implicit=implicit))
+            deps.setdefault(sj.of, []).append(
+                Edge(
+                    of=sj.of,
+                    src=src,
+                    rows=sj.rows,
+                    cols=cols,
+                    shape=(sj.shape[0], sizes[src]),
+                    factor=factor,
+                    subjac=sj,
+                    implicit=implicit,
+                )
+            )
 
     needed, stack = set(), list(responses)
     while stack:
@@ -108,8 +120,10 @@ def data_flow(problem: om.Problem, responses: list[str]) -> DataFlow:
     names = sorted(needed)
     index = {n: i for i, n in enumerate(names)}
     edges = [(index[e.src], index[o]) for o in names for e in deps.get(o, ())]
-    graph = sp.csr_matrix((np.ones(len(edges)), tuple(np.array(edges, dtype=np.int64).T)
-                           if edges else ([], [])), shape=(len(names), len(names)))
+    graph = sp.csr_matrix(
+        (np.ones(len(edges)), tuple(np.array(edges, dtype=np.int64).T) if edges else ([], [])),
+        shape=(len(names), len(names)),
+    )
     n_scc, label = connected_components(graph, directed=True, connection='strong')
     members: dict[int, list[str]] = {}
     for n in names:
@@ -131,7 +145,7 @@ def _topological_order(graph: sp.csr_matrix, n_scc: int, label: np.ndarray) -> l
     while ready:
         c = ready.pop()
         order.append(int(c))
-        for d in cond.indices[cond.indptr[c]:cond.indptr[c + 1]]:
+        for d in cond.indices[cond.indptr[c] : cond.indptr[c + 1]]:
             indeg[d] -= 1
             if indeg[d] == 0:
                 ready.append(d)

@@ -25,6 +25,7 @@ it reads the NLP the model declares (design variables, constraints, objective, t
 * the exit status is reported truthfully: :meth:`IpoptDriver.run` returns True (success)
   only if IPOPT reports ``Solve_Succeeded`` (0) or ``Solved_To_Acceptable_Level`` (1).
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -33,29 +34,41 @@ import signal
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import cyipopt
 import numpy as np
 import openmdao.api as om
 
-from suspopt.driver.sparsity import Coloring, compute_coloring
 from suspopt.driver.propagation import PropagatedTotals, make_totals
+from suspopt.driver.sparsity import Coloring, compute_coloring
 from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
 
 #: IPOPT's return statuses (IpReturnCodes.h).
 IPOPT_STATUS = {
-    0: 'Solve_Succeeded', 1: 'Solved_To_Acceptable_Level', 2: 'Infeasible_Problem_Detected',
-    3: 'Search_Direction_Becomes_Too_Small', 4: 'Diverging_Iterates',
-    5: 'User_Requested_Stop', 6: 'Feasible_Point_Found',
-    -1: 'Maximum_Iterations_Exceeded', -2: 'Restoration_Failed',
-    -3: 'Error_In_Step_Computation', -4: 'Maximum_CpuTime_Exceeded',
-    -5: 'Maximum_WallTime_Exceeded', -10: 'Not_Enough_Degrees_Of_Freedom',
-    -11: 'Invalid_Problem_Definition', -12: 'Invalid_Option',
-    -13: 'Invalid_Number_Detected', -100: 'Unrecoverable_Exception',
-    -101: 'NonIpopt_Exception_Thrown', -102: 'Insufficient_Memory', -199: 'Internal_Error',
+    0: 'Solve_Succeeded',
+    1: 'Solved_To_Acceptable_Level',
+    2: 'Infeasible_Problem_Detected',
+    3: 'Search_Direction_Becomes_Too_Small',
+    4: 'Diverging_Iterates',
+    5: 'User_Requested_Stop',
+    6: 'Feasible_Point_Found',
+    -1: 'Maximum_Iterations_Exceeded',
+    -2: 'Restoration_Failed',
+    -3: 'Error_In_Step_Computation',
+    -4: 'Maximum_CpuTime_Exceeded',
+    -5: 'Maximum_WallTime_Exceeded',
+    -10: 'Not_Enough_Degrees_Of_Freedom',
+    -11: 'Invalid_Problem_Definition',
+    -12: 'Invalid_Option',
+    -13: 'Invalid_Number_Detected',
+    -100: 'Unrecoverable_Exception',
+    -101: 'NonIpopt_Exception_Thrown',
+    -102: 'Insufficient_Memory',
+    -199: 'Internal_Error',
 }
 _INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means "none"
 
@@ -94,13 +107,16 @@ def _ipopt_reason(text: str) -> str:
     lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
     if not lines:
         return 'rejected by IPOPT'
-    reason = lines[0].replace(' Please check the list of available options.', '') \
-        .replace(' Check the option documentation.', '') \
+    reason = (
+        lines[0]
+        .replace(' Please check the list of available options.', '')
+        .replace(' Check the option documentation.', '')
         .replace(' Please check the documentation for options.', '')
+    )
     ranges = [ln for ln in lines if '<=' in ln or '<' in ln and '(' in ln]
     if 'Valid Settings:' in lines:
         i = lines.index('Valid Settings:')
-        valid = [ln.split()[0] for ln in lines[i + 1:] if not ln.startswith('Default')]
+        valid = [ln.split()[0] for ln in lines[i + 1 :] if not ln.startswith('Default')]
         reason += f' (valid: {", ".join(valid)})'
     elif ranges:
         reason += f' (range: {ranges[0]})'
@@ -120,8 +136,11 @@ def _add_option(nlp: cyipopt.Problem, name: str, value: Any) -> None:
 
 #: IPOPT options the driver sets from first-class study keys (the options table would
 #: override them, and the command line's --max-iter with them)
-DRIVER_OPTIONS = {'max_iter': 'optimizer.max_iter', 'tol': 'optimizer.tol',
-                  'print_level': 'optimizer.print_level'}
+DRIVER_OPTIONS = {
+    'max_iter': 'optimizer.max_iter',
+    'tol': 'optimizer.tol',
+    'print_level': 'optimizer.print_level',
+}
 
 
 def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
@@ -142,8 +161,10 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
                 problems.append(f'{name}: must be a number or a string, got {value!r}')
                 continue
             if name in DRIVER_OPTIONS:
-                problems.append(f'{name}: set {DRIVER_OPTIONS[name]} instead (the driver sets '
-                                'this option from it)')
+                problems.append(
+                    f'{name}: set {DRIVER_OPTIONS[name]} instead (the driver sets '
+                    'this option from it)'
+                )
                 continue
             with tempfile.TemporaryFile(mode='w+') as out:
                 try:
@@ -151,13 +172,14 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
                         _add_option(nlp, name, value)
                 except TypeError:
                     out.seek(0)
-                    problems.append(f'{name}: IPOPT rejects {value!r}: '
-                                    f'{_ipopt_reason(out.read())}')
+                    problems.append(f'{name}: IPOPT rejects {value!r}: {_ipopt_reason(out.read())}')
                     continue
             if name == 'hessian_approximation' and value != 'limited-memory':
-                problems.append(f'{name}: {value!r} needs the Hessian of the Lagrangian, which '
-                                "suspopt's driver does not compute; use 'limited-memory' (the "
-                                'default)')
+                problems.append(
+                    f'{name}: {value!r} needs the Hessian of the Lagrangian, which '
+                    "suspopt's driver does not compute; use 'limited-memory' (the "
+                    'default)'
+                )
             elif name == 'output_file':
                 problems.extend(_output_file_problems(name, value))
             else:
@@ -168,10 +190,15 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
         for name, value in accepted.items():  # which one: each alone
             status, text = _probe_solve({name: value})
             if status in _OPTION_FAILURES:
-                problems.append(f'{name}: IPOPT cannot run with {value!r}: '
-                                f'{_solve_reason(text)}'
-                                + (" (this IPOPT's linear solver is 'mumps')"
-                                   if name == 'linear_solver' else ''))
+                problems.append(
+                    f'{name}: IPOPT cannot run with {value!r}: '
+                    f'{_solve_reason(text)}'
+                    + (
+                        " (this IPOPT's linear solver is 'mumps')"
+                        if name == 'linear_solver'
+                        else ''
+                    )
+                )
     return problems
 
 
@@ -200,13 +227,15 @@ def _probe_solve(options: dict[str, Any]) -> tuple[int, str]:
 def _solve_reason(text: str) -> str:
     """IPOPT's explanation of a solve that did not start, in one line."""
     lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
-    msg = [ln.split('Exception message:', 1)[1].strip() for ln in lines
-           if 'Exception message:' in ln]
+    msg = [
+        ln.split('Exception message:', 1)[1].strip() for ln in lines if 'Exception message:' in ln
+    ]
     return (msg or lines or ['IPOPT stopped before the first iteration (Invalid_Option)'])[0]
 
 
 def _output_file_problems(name: str, value: Any) -> list[str]:
     from pathlib import Path
+
     if not isinstance(value, str) or not value:
         return [f'{name}: must be a file name, got {value!r}']
     path = Path(value)
@@ -254,15 +283,28 @@ class IpoptDriver:
     every color at once where the model allows it).
     """
 
-    def __init__(self, problem: om.Problem, *, max_iter: int = 3000, tol: float = 1e-8,
-                 print_level: int = 0, hessian_approximation: str = 'limited-memory',
-                 progress: Callable[[IterationInfo], None] | None = None,
-                 watch: tuple[str, ...] | list[str] = (), coloring: Coloring | None = None,
-                 opt_settings: dict[str, Any] | None = None, totals: str = 'auto'):
+    def __init__(
+        self,
+        problem: om.Problem,
+        *,
+        max_iter: int = 3000,
+        tol: float = 1e-8,
+        print_level: int = 0,
+        hessian_approximation: str = 'limited-memory',
+        progress: Callable[[IterationInfo], None] | None = None,
+        watch: tuple[str, ...] | list[str] = (),
+        coloring: Coloring | None = None,
+        opt_settings: dict[str, Any] | None = None,
+        totals: str = 'auto',
+    ):
         self.problem = problem
         self.totals_method = totals
-        self.options = {'max_iter': max_iter, 'tol': tol, 'print_level': print_level,
-                        'hessian_approximation': hessian_approximation}
+        self.options = {
+            'max_iter': max_iter,
+            'tol': tol,
+            'print_level': print_level,
+            'hessian_approximation': hessian_approximation,
+        }
         if hessian_approximation == 'limited-memory':
             self.options.update(LIMITED_MEMORY_OPTIONS)
         self.progress = progress
@@ -284,23 +326,41 @@ class IpoptDriver:
         if self._layout is None:
             self._layout = lay = nlp_layout(self.problem)
             meta = [lay.dv_meta[v.name] for v in lay.design_vars]
-            self._dv_scaler = np.concatenate([_vec(m.get('total_scaler'), 1.0, v.size)
-                                              for m, v in zip(meta, lay.design_vars)])
-            self._dv_adder = np.concatenate([_vec(m.get('total_adder'), 0.0, v.size)
-                                             for m, v in zip(meta, lay.design_vars)])
+            self._dv_scaler = np.concatenate(
+                [_vec(m.get('total_scaler'), 1.0, v.size) for m, v in zip(meta, lay.design_vars)]
+            )
+            self._dv_adder = np.concatenate(
+                [_vec(m.get('total_adder'), 0.0, v.size) for m, v in zip(meta, lay.design_vars)]
+            )
             cmeta = [lay.con_meta[v.name] for v in lay.constraints]
-            self._con_scaler = (np.concatenate([_vec(m.get('total_scaler'), 1.0, v.size)
-                                                for m, v in zip(cmeta, lay.constraints)])
-                                if cmeta else np.zeros(0))
-            self._con_adder = (np.concatenate([_vec(m.get('total_adder'), 0.0, v.size)
-                                               for m, v in zip(cmeta, lay.constraints)])
-                               if cmeta else np.zeros(0))
+            self._con_scaler = (
+                np.concatenate(
+                    [
+                        _vec(m.get('total_scaler'), 1.0, v.size)
+                        for m, v in zip(cmeta, lay.constraints)
+                    ]
+                )
+                if cmeta
+                else np.zeros(0)
+            )
+            self._con_adder = (
+                np.concatenate(
+                    [
+                        _vec(m.get('total_adder'), 0.0, v.size)
+                        for m, v in zip(cmeta, lay.constraints)
+                    ]
+                )
+                if cmeta
+                else np.zeros(0)
+            )
             self._obj_scaler = float(_vec(lay.obj_meta.get('total_scaler'), 1.0, 1)[0])
             self._obj_adder = float(_vec(lay.obj_meta.get('total_adder'), 0.0, 1)[0])
-            lo = np.concatenate([_vec(m.get('lower'), -np.inf, v.size)
-                                 for m, v in zip(meta, lay.design_vars)])
-            up = np.concatenate([_vec(m.get('upper'), np.inf, v.size)
-                                 for m, v in zip(meta, lay.design_vars)])
+            lo = np.concatenate(
+                [_vec(m.get('lower'), -np.inf, v.size) for m, v in zip(meta, lay.design_vars)]
+            )
+            up = np.concatenate(
+                [_vec(m.get('upper'), np.inf, v.size) for m, v in zip(meta, lay.design_vars)]
+            )
             self._lb, self._ub = self._scaled_x(lo), self._scaled_x(up)
             cl, cu = [], []
             for m, v in zip(cmeta, lay.constraints):
@@ -318,8 +378,9 @@ class IpoptDriver:
             self._con_pos = flat_positions(outputs, lay.constraints)
             self._obj_pos = flat_positions(outputs, [lay.objective])
             starts = np.cumsum([0] + [v.size for v in lay.design_vars])
-            self._dv_slices = {v.name: slice(a, b)
-                               for v, a, b in zip(lay.design_vars, starts[:-1], starts[1:])}
+            self._dv_slices = {
+                v.name: slice(a, b) for v, a, b in zip(lay.design_vars, starts[:-1], starts[1:])
+            }
         return self._layout
 
     def _scaled_x(self, phys: np.ndarray) -> np.ndarray:
@@ -343,8 +404,10 @@ class IpoptDriver:
             self.coloring = compute_coloring(self.problem, lay.constraints, lay.design_vars)
         c = self.coloring
         if c is not None and tuple(c.shape) != (lay.m, lay.n):
-            raise ValueError(f'total coloring shape {c.shape} does not match the constraint '
-                             f'Jacobian ({lay.m}, {lay.n}); the cached coloring is stale')
+            raise ValueError(
+                f'total coloring shape {c.shape} does not match the constraint '
+                f'Jacobian ({lay.m}, {lay.n}); the cached coloring is stale'
+            )
         return c
 
     # ------------------------------------------------------------------ evaluations
@@ -412,13 +475,27 @@ class IpoptDriver:
     def jacobianstructure(self) -> tuple[np.ndarray, np.ndarray]:
         return self._jrows, self._jcols
 
-    def intermediate(self, alg_mod, iter_count, obj_value, inf_pr, inf_du, mu, d_norm,
-                     regularization_size, alpha_du, alpha_pr, ls_trials) -> bool:
-        info = IterationInfo(iteration=int(iter_count),
-                             objective=float(obj_value) / self._obj_scaler - self._obj_adder,
-                             constraint_violation=float(inf_pr),
-                             dual_infeasibility=float(inf_du),
-                             elapsed_s=time.perf_counter() - self._t0)
+    def intermediate(
+        self,
+        alg_mod,
+        iter_count,
+        obj_value,
+        inf_pr,
+        inf_du,
+        mu,
+        d_norm,
+        regularization_size,
+        alpha_du,
+        alpha_pr,
+        ls_trials,
+    ) -> bool:
+        info = IterationInfo(
+            iteration=int(iter_count),
+            objective=float(obj_value) / self._obj_scaler - self._obj_adder,
+            constraint_violation=float(inf_pr),
+            dual_infeasibility=float(inf_du),
+            elapsed_s=time.perf_counter() - self._t0,
+        )
         if self.watch:
             try:
                 x = np.asarray(self._nlp.get_current_iterate(scaled=False)['x'])
@@ -469,8 +546,9 @@ class IpoptDriver:
             sl = self._dv_slices[name]
             lb[sl] = ub[sl] = x0[sl]
 
-        self._nlp = nlp = cyipopt.Problem(n=lay.n, m=lay.m, problem_obj=self, lb=lb, ub=ub,
-                                          cl=self._cl, cu=self._cu)
+        self._nlp = nlp = cyipopt.Problem(
+            n=lay.n, m=lay.m, problem_obj=self, lb=lb, ub=ub, cl=self._cl, cu=self._cu
+        )
         for key, val in self.options.items():
             nlp.add_option(key, val)
         nlp.add_option('sb', 'yes')
@@ -481,8 +559,10 @@ class IpoptDriver:
             if self.interrupted:
                 raise KeyboardInterrupt
             self.interrupted = True
-            print('\nInterrupt: stopping IPOPT after this iteration (again to abort).',
-                  file=sys.stderr)
+            print(
+                '\nInterrupt: stopping IPOPT after this iteration (again to abort).',
+                file=sys.stderr,
+            )
 
         previous = {}
         for sig in (signal.SIGINT, signal.SIGTERM):
@@ -498,8 +578,9 @@ class IpoptDriver:
             nlp.close()
             self._nlp = None
         self.status = int(info['status'])
-        self.status_message = IPOPT_STATUS.get(self.status,
-                                               info['status_msg'].decode(errors='replace'))
+        self.status_message = IPOPT_STATUS.get(
+            self.status, info['status_msg'].decode(errors='replace')
+        )
         # leave the model at IPOPT's final point (inside the bounds: IPOPT relaxes them by
         # its bound_relax_factor internally)
         self._x_run = None
@@ -514,5 +595,8 @@ def _vec(value: Any, default: float, size: int) -> np.ndarray:
     """``value`` (None, scalar or array) as a float vector of ``size``."""
     if value is None:
         return np.full(size, default)
-    return np.broadcast_to(np.asarray(value, dtype=float).ravel(), (size,)).copy() \
-        if np.size(value) in (1, size) else np.asarray(value, dtype=float).ravel()
+    return (
+        np.broadcast_to(np.asarray(value, dtype=float).ravel(), (size,)).copy()
+        if np.size(value) in (1, size)
+        else np.asarray(value, dtype=float).ravel()
+    )

@@ -19,6 +19,7 @@ Only for what it covers: explicit components without cycles in the responses' da
 (:func:`supported`); otherwise the driver uses :class:`ColoredTotals`.
 ``tests/test_propagation.py`` checks that both give the same derivatives on every model.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -34,9 +35,11 @@ from suspopt.driver.totals import ColoredTotals, Layout
 def supported(flow: DataFlow) -> bool:
     """True if the propagation covers this data flow: OpenMDAO internals known, only
     explicit components, no cycle."""
-    return (structure.supported()
-            and not any(flow.is_cycle(g) for g in flow.groups)
-            and not any(e.implicit for edges in flow.deps.values() for e in edges))
+    return (
+        structure.supported()
+        and not any(flow.is_cycle(g) for g in flow.groups)
+        and not any(e.implicit for edges in flow.deps.values() for e in edges)
+    )
 
 
 class _Product:
@@ -52,12 +55,15 @@ class _Product:
         unique, self.slot = np.unique(key, return_inverse=True)  # declared entry -> CSR slot
         self.duplicates = unique.size != key.size
         r, c = unique // ncol, unique % ncol
-        self.P = sp.csr_matrix((np.zeros(unique.size), c, np.searchsorted(
-            r, np.arange(nrow + 1))), shape=edge.shape)  # row-major: slots in CSR order
+        self.P = sp.csr_matrix(
+            (np.zeros(unique.size), c, np.searchsorted(r, np.arange(nrow + 1))), shape=edge.shape
+        )  # row-major: slots in CSR order
         self.transpose = np.lexsort((r, c))  # slots in column-major (CSR of Pᵀ) order
         t = self.transpose
-        self.PT = sp.csr_matrix((np.zeros(unique.size), r[t], np.searchsorted(
-            c[t], np.arange(ncol + 1))), shape=(ncol, nrow))
+        self.PT = sp.csr_matrix(
+            (np.zeros(unique.size), r[t], np.searchsorted(c[t], np.arange(ncol + 1))),
+            shape=(ncol, nrow),
+        )
 
     def refill(self) -> None:
         val = self.edge.subjac.values()
@@ -77,13 +83,14 @@ class PropagatedTotals:
     current point (the same as :class:`ColoredTotals`), by one linearization and one
     propagation of all colors through the data flow ``flow``."""
 
-    def __init__(self, problem: om.Problem, layout: Layout, coloring: Coloring,
-                 flow: DataFlow):
+    def __init__(self, problem: om.Problem, layout: Layout, coloring: Coloring, flow: DataFlow):
         if not supported(flow):
             raise ValueError('the propagated totals need an explicit, acyclic data flow')
         if tuple(coloring.shape) != (layout.m, layout.n):
-            raise ValueError(f'coloring shape {coloring.shape} does not match the '
-                             f'constraint Jacobian ({layout.m}, {layout.n})')
+            raise ValueError(
+                f'coloring shape {coloring.shape} does not match the '
+                f'constraint Jacobian ({layout.m}, {layout.n})'
+            )
         self.problem, self.layout, self.coloring, self.flow = problem, layout, coloring, flow
         sizes = flow.sizes
         self._order = [g[0] for g in flow.groups]
@@ -99,7 +106,7 @@ class PropagatedTotals:
         start = 0
         for v in layout.design_vars:
             idx = entries(v)
-            color = coloring.colors[start:start + idx.size]
+            color = coloring.colors[start : start + idx.size]
             ok = color >= 0
             E = self._seeds.setdefault(v.source, np.zeros((sizes[v.source], n_colors)))
             E[idx[ok], color[ok]] += 1.0
@@ -110,14 +117,17 @@ class PropagatedTotals:
         self._gather = []
         for k, v in enumerate(layout.constraints):
             pos = forward[row_var[coloring.rows[forward]] == k]
-            self._gather.append((v.source, pos, row_entry[coloring.rows[pos]],
-                                 coloring.colors[coloring.cols[pos]]))
+            self._gather.append(
+                (v.source, pos, row_entry[coloring.rows[pos]], coloring.colors[coloring.cols[pos]])
+            )
         # reverse: the objective (column 0) and the dense constraint rows
         n_rev = 1 + coloring.reverse_rows.size
         self._rseeds: dict[str, np.ndarray] = {}
         targets = [(layout.objective.source, entries(layout.objective))]
-        targets += [(layout.constraints[row_var[r]].source, row_entry[r:r + 1])
-                    for r in coloring.reverse_rows]
+        targets += [
+            (layout.constraints[row_var[r]].source, row_entry[r : r + 1])
+            for r in coloring.reverse_rows
+        ]
         for j, (src, idx) in enumerate(targets):
             W = self._rseeds.setdefault(src, np.zeros((sizes[src], n_rev)))
             W[idx, j] += 1.0
@@ -166,8 +176,9 @@ class PropagatedTotals:
                 src = p.edge.src
                 W[src] = prod if src not in W else W[src] + prod
         n_rev = 1 + self.coloring.reverse_rows.size
-        G = np.concatenate([W[src][idx] if src in W else np.zeros((idx.size, n_rev))
-                            for src, idx in self._dv])
+        G = np.concatenate(
+            [W[src][idx] if src in W else np.zeros((idx.size, n_rev)) for src, idx in self._dv]
+        )
         for k, pos in enumerate(self._rev_pos):
             jac[pos] = G[self.coloring.cols[pos], 1 + k]
         return G[:, 0].copy(), jac
@@ -178,18 +189,24 @@ class PropagatedTotals:
 TOTALS_METHODS = ('auto', 'propagated', 'solves')
 
 
-def make_totals(problem: om.Problem, layout: Layout, coloring: Coloring | None,
-                method: str = 'auto') -> ColoredTotals | PropagatedTotals:
+def make_totals(
+    problem: om.Problem, layout: Layout, coloring: Coloring | None, method: str = 'auto'
+) -> ColoredTotals | PropagatedTotals:
     """The total-derivative engine for ``problem``: :class:`PropagatedTotals` where it is
     supported (and asked for), else :class:`ColoredTotals`."""
     if method not in TOTALS_METHODS:
         raise ValueError(f'totals method must be one of {TOTALS_METHODS}, got {method!r}')
     if method != 'solves' and coloring is not None and layout.m:
-        flow = data_flow(problem, [v.source for v in layout.constraints]
-                         + [layout.objective.source]) if structure.supported() else None
+        flow = (
+            data_flow(problem, [v.source for v in layout.constraints] + [layout.objective.source])
+            if structure.supported()
+            else None
+        )
         if flow is not None and supported(flow):
             return PropagatedTotals(problem, layout, coloring, flow)
     if method == 'propagated':
-        raise ValueError('the propagated totals do not cover this model (implicit '
-                         'components, a cycle, or an untested OpenMDAO version)')
+        raise ValueError(
+            'the propagated totals do not cover this model (implicit '
+            'components, a cycle, or an untested OpenMDAO version)'
+        )
     return ColoredTotals(problem, layout, coloring)

@@ -18,6 +18,7 @@ starting point, e.g. ``dF_S/dk_S`` at zero states, is never dropped).
 coloring of the column intersection graph, largest columns first), so that one forward
 linear solve per color gives all columns of that color (Curtis, Powell & Reid 1974).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -28,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import openmdao.api as om
 import scipy.sparse as sp
+
 import suspopt.driver.structure as structure
 from suspopt.driver.dataflow import data_flow
 
@@ -78,20 +80,29 @@ class Coloring:
 
     def save(self, path: str | Path) -> None:
         with open(path, 'wb') as fh:
-            np.savez(fh, shape=np.asarray(self.shape), rows=self.rows, cols=self.cols,
-                     colors=self.colors, reverse_rows=self.reverse_rows)
+            np.savez(
+                fh,
+                shape=np.asarray(self.shape),
+                rows=self.rows,
+                cols=self.cols,
+                colors=self.colors,
+                reverse_rows=self.reverse_rows,
+            )
 
     @classmethod
-    def load(cls, path: str | Path) -> 'Coloring':
+    def load(cls, path: str | Path) -> Coloring:
         with np.load(path) as data:
-            return cls(shape=tuple(int(s) for s in data['shape']), rows=data['rows'],
-                       cols=data['cols'], colors=data['colors'],
-                       reverse_rows=data['reverse_rows'])
+            return cls(
+                shape=tuple(int(s) for s in data['shape']),
+                rows=data['rows'],
+                cols=data['cols'],
+                colors=data['colors'],
+                reverse_rows=data['reverse_rows'],
+            )
 
     def digest(self) -> str:
         h = hashlib.sha256()
-        for a in (np.asarray(self.shape), self.rows, self.cols, self.colors,
-                  self.reverse_rows):
+        for a in (np.asarray(self.shape), self.rows, self.cols, self.colors, self.reverse_rows):
             h.update(np.ascontiguousarray(a).tobytes())
         return h.hexdigest()[:16]
 
@@ -104,15 +115,20 @@ def _bool(m: sp.spmatrix) -> sp.csr_matrix:
     return m
 
 
-def structural_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Variable]
-                        ) -> sp.csr_matrix:
+def structural_sparsity(
+    problem: om.Problem, of: list[Variable], wrt: list[Variable]
+) -> sp.csr_matrix:
     """The exact pattern of ``d of / d wrt`` (rows: ``of`` entries in order, columns:
     ``wrt`` entries in order) from the declared partials of every component."""
     flow = data_flow(problem, [v.source for v in of])
     sizes = flow.sizes
-    patterns = {id(e): sp.csr_matrix((np.ones(e.rows.size, dtype=np.float32), (e.rows, e.cols)),
-                                 shape=e.shape)
-                for edges in flow.deps.values() for e in edges}
+    patterns = {
+        id(e): sp.csr_matrix(
+            (np.ones(e.rows.size, dtype=np.float32), (e.rows, e.cols)), shape=e.shape
+        )
+        for edges in flow.deps.values()
+        for e in edges
+    }
 
     # columns: one per design-variable entry
     ncol = sum(v.size for v in wrt)
@@ -120,9 +136,10 @@ def structural_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Varia
     start = 0
     for v in wrt:
         idx = np.arange(sizes[v.source]) if v.indices is None else v.indices
-        seed = sp.csr_matrix((np.ones(idx.size, dtype=np.float32),
-                              (idx, start + np.arange(idx.size))),
-                             shape=(sizes[v.source], ncol))
+        seed = sp.csr_matrix(
+            (np.ones(idx.size, dtype=np.float32), (idx, start + np.arange(idx.size))),
+            shape=(sizes[v.source], ncol),
+        )
         seeds[v.source] = seed if v.source not in seeds else _bool(seeds[v.source] + seed)
         start += idx.size
 
@@ -178,8 +195,7 @@ def color_columns(pattern: sp.spmatrix) -> np.ndarray:
     Jc = J.tocsc()
     Jc.sort_indices()
     degree = np.diff(Jc.indptr)
-    first = np.where(degree > 0, Jc.indices[np.minimum(Jc.indptr[:-1], max(Jc.nnz - 1, 0))],
-                     m)
+    first = np.where(degree > 0, Jc.indices[np.minimum(Jc.indptr[:-1], max(Jc.nnz - 1, 0))], m)
     dense = degree > 0.5 * m
     order = np.lexsort((first, ~dense))
     G = (Jc.T @ J.tocsr()).tocsr()  # columns sharing a row
@@ -188,10 +204,10 @@ def color_columns(pattern: sp.spmatrix) -> np.ndarray:
     for c in order:
         if degree[c] == 0:
             continue
-        nb = colors[G.indices[G.indptr[c]:G.indptr[c + 1]]]
+        nb = colors[G.indices[G.indptr[c] : G.indptr[c + 1]]]
         nb = nb[nb >= 0]
         taken[nb] = True
-        colors[c] = int(np.argmin(taken[:nb.size + 1]))
+        colors[c] = int(np.argmin(taken[: nb.size + 1]))
         taken[nb] = False
     return colors
 
@@ -210,12 +226,11 @@ def dense_rows(row_nnz: np.ndarray) -> np.ndarray:
     order = np.argsort(-row_nnz, kind='stable')
     length = np.append(row_nnz[order], 0)
     k_max = int(np.count_nonzero(row_nnz > DENSE_ROW_MIN))
-    k = int(np.argmin(np.arange(k_max + 1) + length[:k_max + 1]))
+    k = int(np.argmin(np.arange(k_max + 1) + length[: k_max + 1]))
     return np.sort(order[:k])
 
 
-def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable]
-                     ) -> Coloring:
+def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable]) -> Coloring:
     """The sparsity of ``d of / d wrt`` and its column coloring, from the declared
     structure (OpenMDAO's public, dense total coloring where :mod:`structure` does not
     support this OpenMDAO version)."""
@@ -238,17 +253,22 @@ def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable
         forward.eliminate_zeros()
     colors = color_columns(forward)
     t2 = time.perf_counter()
-    return Coloring(shape=tuple(pattern.shape), rows=coo.row.astype(np.int64),
-                    cols=coo.col.astype(np.int64), colors=colors,
-                    reverse_rows=reverse.astype(np.int64),
-                    info={'method': method, 'sparsity_s': t1 - t0, 'coloring_s': t2 - t1})
+    return Coloring(
+        shape=tuple(pattern.shape),
+        rows=coo.row.astype(np.int64),
+        cols=coo.col.astype(np.int64),
+        colors=colors,
+        reverse_rows=reverse.astype(np.int64),
+        info={'method': method, 'sparsity_s': t1 - t0, 'coloring_s': t2 - t1},
+    )
 
 
-def _dense_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Variable]
-                    ) -> sp.csr_matrix:
+def _dense_sparsity(problem: om.Problem, of: list[Variable], wrt: list[Variable]) -> sp.csr_matrix:
     """OpenMDAO's own (public) total sparsity: randomized dense total Jacobians. Cost and
     memory grow with m × n; the fallback for an OpenMDAO whose internals are unknown."""
     from openmdao.utils.coloring import compute_total_coloring
-    coloring = compute_total_coloring(problem, of=[v.name for v in of],
-                                      wrt=[v.name for v in wrt], num_full_jacs=2)
+
+    coloring = compute_total_coloring(
+        problem, of=[v.name for v in of], wrt=[v.name for v in wrt], num_full_jacs=2
+    )
     return sp.csr_matrix(coloring.get_dense_sparsity(dtype=bool))

@@ -18,10 +18,11 @@ reads them from its internals, and nothing else in suspopt does. Private names u
 :func:`supported` is False on any other, and the caller then uses OpenMDAO's public (dense)
 total coloring instead. ``tests/test_sparsity.py`` checks that both give the same pattern.
 """
+
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Iterator
 
 import numpy as np
 import openmdao
@@ -55,8 +56,7 @@ class Subjac:
         return val if val.size == self.rows.size else np.broadcast_to(val, self.rows.shape)
 
 
-def declared_subjacs(component: om.ExplicitComponent | om.ImplicitComponent
-                     ) -> Iterator[Subjac]:
+def declared_subjacs(component: om.ExplicitComponent | om.ImplicitComponent) -> Iterator[Subjac]:
     """The declared partial derivatives of ``component`` (after ``final_setup``).
 
     An explicit component's identity ``d out / d out`` (its residual) is left out."""

@@ -18,6 +18,7 @@ are
 OpenMDAO prunes each linear solve to the systems relevant to the model's design variables
 and responses. Nothing here forms a dense m × n array.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -57,20 +58,29 @@ def nlp_layout(problem: om.Problem) -> Layout:
     """Design variables, nonlinear constraints and the objective of ``problem``."""
     model = problem.model
     dvs = model.get_design_vars(recurse=True, get_sizes=True)
-    cons = {k: v for k, v in model.get_constraints(recurse=True, get_sizes=True).items()
-            if not v.get('linear')}
+    cons = {
+        k: v
+        for k, v in model.get_constraints(recurse=True, get_sizes=True).items()
+        if not v.get('linear')
+    }
     objs = model.get_objectives(recurse=True, get_sizes=True)
     if len(objs) != 1:
         raise ValueError(f'the model needs exactly one objective, has {len(objs)}')
-    (oname, ometa), = objs.items()
+    ((oname, ometa),) = objs.items()
 
     def var(name: str, meta: dict) -> Variable:
-        return Variable(name=name, source=meta['source'], indices=_indices(meta),
-                        size=int(meta['size']))
+        return Variable(
+            name=name, source=meta['source'], indices=_indices(meta), size=int(meta['size'])
+        )
 
-    return Layout(design_vars=[var(k, v) for k, v in dvs.items()],
-                  constraints=[var(k, v) for k, v in cons.items()],
-                  objective=var(oname, ometa), dv_meta=dvs, con_meta=cons, obj_meta=ometa)
+    return Layout(
+        design_vars=[var(k, v) for k, v in dvs.items()],
+        constraints=[var(k, v) for k, v in cons.items()],
+        objective=var(oname, ometa),
+        dv_meta=dvs,
+        con_meta=cons,
+        obj_meta=ometa,
+    )
 
 
 def flat_positions(vector, variables: list[Variable]) -> np.ndarray:
@@ -98,8 +108,10 @@ class ColoredTotals:
         self._colors, self._reverse = [], []
         if coloring is not None and layout.m:
             if tuple(coloring.shape) != (layout.m, layout.n):
-                raise ValueError(f'coloring shape {coloring.shape} does not match the '
-                                 f'constraint Jacobian ({layout.m}, {layout.n})')
+                raise ValueError(
+                    f'coloring shape {coloring.shape} does not match the '
+                    f'constraint Jacobian ({layout.m}, {layout.n})'
+                )
             col_of_nz = coloring.cols
             forward = ~np.isin(coloring.rows, coloring.reverse_rows)
             for cols in coloring.color_groups():
@@ -108,12 +120,10 @@ class ColoredTotals:
                 hi = np.searchsorted(col_of_nz, cols, side='right')
                 pos = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])
                 pos = pos[forward[pos]]
-                self._colors.append((self._dv_res[cols], pos,
-                                     self._con_out[coloring.rows[pos]]))
+                self._colors.append((self._dv_res[cols], pos, self._con_out[coloring.rows[pos]]))
             for row in coloring.reverse_rows:
                 pos = np.nonzero(coloring.rows == row)[0]
-                self._reverse.append((self._con_out[row], pos,
-                                      self._dv_res[coloring.cols[pos]]))
+                self._reverse.append((self._con_out[row], pos, self._dv_res[coloring.cols[pos]]))
 
     def compute(self) -> tuple[np.ndarray, np.ndarray]:
         """(objective gradient (n,), Jacobian values at the coloring's nonzeros)."""

@@ -1,5 +1,6 @@
 """Shared plumbing of the model components: vectorized over nodes and corners, with
 sparse analytic partials (Dymos' idiom)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,14 +32,16 @@ class NodeComponent(om.ExplicitComponent):
     def _sum_partials(self, of: str, wrt: str, val=None) -> None:
         """(nodes,) output of a (nodes, corners) input: each node's corners."""
         nn, nc = self._shape
-        self.declare_partials(of, wrt, rows=np.repeat(np.arange(nn), nc),
-                              cols=np.arange(nn * nc), val=val)
+        self.declare_partials(
+            of, wrt, rows=np.repeat(np.arange(nn), nc), cols=np.arange(nn * nc), val=val
+        )
 
     def _spread_partials(self, of: str, wrt: str, val=None) -> None:
         """(nodes, corners) output of a (nodes,) input: every corner of the node."""
         nn, nc = self._shape
-        self.declare_partials(of, wrt, rows=np.arange(nn * nc),
-                              cols=np.repeat(np.arange(nn), nc), val=val)
+        self.declare_partials(
+            of, wrt, rows=np.arange(nn * nc), cols=np.repeat(np.arange(nn), nc), val=val
+        )
 
     def _setting_partials(self, of: str, wrt: str) -> None:
         """(nodes, corners) output of a static per-corner (corners,) input."""

@@ -1,4 +1,5 @@
 """Rigid chassis: heave (paper eq. 5), pitch (eq. 6) and, in the full car, roll."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,8 +17,12 @@ class _ChassisComp(NodeComponent):
 
     def initialize(self) -> None:
         super().initialize()
-        self.options.declare('forces', types=tuple, default=('F_S',),
-                             desc='names of the (nodes, corners) forces on the chassis [N]')
+        self.options.declare(
+            'forces',
+            types=tuple,
+            default=('F_S',),
+            desc='names of the (nodes, corners) forces on the chassis [N]',
+        )
 
     def setup(self) -> None:
         nn, nc = self._shape
@@ -64,8 +69,9 @@ class ChassisPitchComp(_ChassisComp):
         return -self.options['a'] / self.options['I']
 
     def compute(self, inputs, outputs) -> None:
-        outputs['thdd_C'] = eq.chassis_pitch_acceleration(self._total(inputs), self.options['a'],
-                                                          self.options['I'])
+        outputs['thdd_C'] = eq.chassis_pitch_acceleration(
+            self._total(inputs), self.options['a'], self.options['I']
+        )
 
 
 class ChassisRollComp(_ChassisComp):
@@ -82,5 +88,6 @@ class ChassisRollComp(_ChassisComp):
         return self.options['y'] / self.options['I_x']
 
     def compute(self, inputs, outputs) -> None:
-        outputs['phidd_C'] = eq.chassis_roll_acceleration(self._total(inputs),
-                                                          self.options['y'], self.options['I_x'])
+        outputs['phidd_C'] = eq.chassis_roll_acceleration(
+            self._total(inputs), self.options['y'], self.options['I_x']
+        )

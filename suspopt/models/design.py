@@ -1,5 +1,6 @@
 """The design variables' names: their kind, units and the corners they act on (no
 OpenMDAO here: the study file's checks import this)."""
+
 from __future__ import annotations
 
 #: units of each kind of design variable: spring rate, damping, anti-roll bar rate
@@ -11,8 +12,9 @@ def design_kind(name: str) -> str:
     return name[:3]
 
 
-def corner_of_design(names: tuple[str, ...], labels: tuple[str, ...]
-                     ) -> dict[str, list[tuple[str, int]]]:
+def corner_of_design(
+    names: tuple[str, ...], labels: tuple[str, ...]
+) -> dict[str, list[tuple[str, int]]]:
     """Where each design variable acts: ``{name: [(setting, index), ...]}`` with setting
     ``k_S``/``c_S`` (index: a corner) or ``k_R`` (index: a bar, in axle order). A per-axle
     variable (``k_S1``) acts on every corner of its axle, a per-corner one (``k_S1L``) on
@@ -24,6 +26,9 @@ def corner_of_design(names: tuple[str, ...], labels: tuple[str, ...]
         if kind == 'k_R':
             out[n] = [('k_R', bars.index(n))]
         else:
-            out[n] = [(kind, i) for i, lab in enumerate(labels)
-                      if lab == group or (len(group) == 1 and lab[0] == group)]
+            out[n] = [
+                (kind, i)
+                for i, lab in enumerate(labels)
+                if lab == group or (len(group) == 1 and lab[0] == group)
+            ]
     return out

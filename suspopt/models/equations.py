@@ -9,29 +9,38 @@ axis (:mod:`suspopt.models.layout`); the half car is the two-corner case.
 Sign conventions (SPEC §2): ``z`` up, pitch ``θ`` positive nose down, roll ``φ`` positive
 left side up, ``a`` forward from the chassis CG, ``y`` to its left.
 """
+
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 
-def mount_motion(z_C: ArrayLike, theta_C: ArrayLike, phi_C: ArrayLike | float,
-                 a: ArrayLike, y: ArrayLike) -> np.ndarray:
+def mount_motion(
+    z_C: ArrayLike, theta_C: ArrayLike, phi_C: ArrayLike | float, a: ArrayLike, y: ArrayLike
+) -> np.ndarray:
     """Vertical motion of the chassis above each corner, ``z_C - a θ_C + y φ_C`` (the
     chassis side of eq. 9; the same expression maps rates to rates)."""
     z_C, theta_C, phi_C = (np.asarray(x)[..., None] for x in (z_C, theta_C, phi_C))
     return z_C - a * theta_C + y * phi_C
 
 
-def suspension_force(k_S: ArrayLike, c_S: ArrayLike, z_W: ArrayLike, v_W: ArrayLike,
-                     z_M: ArrayLike, v_M: ArrayLike) -> np.ndarray:
+def suspension_force(
+    k_S: ArrayLike, c_S: ArrayLike, z_W: ArrayLike, v_W: ArrayLike, z_M: ArrayLike, v_M: ArrayLike
+) -> np.ndarray:
     """Suspension force on the chassis at each corner, eq. 9 (eq. 12 with ``z_W = q^z_U``):
     ``F_S = k_S (z_W - z_M) + c_S (v_W - v_M)``, with ``z_M`` the chassis above the corner."""
     return k_S * (z_W - z_M) + c_S * (v_W - v_M)
 
 
-def anti_roll_force(k_R: ArrayLike, z_W: ArrayLike, z_M: ArrayLike, track: ArrayLike,
-                    left: ArrayLike, right: ArrayLike) -> np.ndarray:
+def anti_roll_force(
+    k_R: ArrayLike,
+    z_W: ArrayLike,
+    z_M: ArrayLike,
+    track: ArrayLike,
+    left: ArrayLike,
+    right: ArrayLike,
+) -> np.ndarray:
     """Force of the anti-roll bars on the chassis at each corner. A bar of torsional rate
     ``k_R`` [N m/rad] across track ``t`` twists by ``Δ = (s_L - s_R)/t``, ``s = z_W - z_M``
     the corner's suspension deflection, and pushes the chassis up by ``k_R Δ / t`` on the
@@ -41,7 +50,7 @@ def anti_roll_force(k_R: ArrayLike, z_W: ArrayLike, z_M: ArrayLike, track: Array
     F = np.zeros_like(s)
     left, right = np.asarray(left, dtype=int), np.asarray(right, dtype=int)
     if left.size:
-        force = np.asarray(k_R) * (s[..., left] - s[..., right]) / np.asarray(track)**2
+        force = np.asarray(k_R) * (s[..., left] - s[..., right]) / np.asarray(track) ** 2
         F[..., left] = force
         F[..., right] = -force
     return F
@@ -73,8 +82,7 @@ def wheel_acceleration(F_T: ArrayLike, F: ArrayLike, m: ArrayLike) -> np.ndarray
     return (np.asarray(F_T) - np.asarray(F)) / m
 
 
-def objective_integrands(chassis_accelerations: list[ArrayLike], wheel_z: ArrayLike
-                         ) -> np.ndarray:
+def objective_integrands(chassis_accelerations: list[ArrayLike], wheel_z: ArrayLike) -> np.ndarray:
     """Integrands of the objective terms (eq. 4, SPEC §5), stacked on the last axis: the
     squared chassis accelerations (heave, pitch[, roll]) then each wheel's squared travel."""
     chassis = np.stack([np.square(x) for x in chassis_accelerations], axis=-1)
@@ -103,8 +111,9 @@ def mount_map(a: ArrayLike, y: ArrayLike, side: ArrayLike, roll: bool) -> np.nda
     return L
 
 
-def chassis_mount_accelerations(F0: ArrayLike, G: ArrayLike, F_R: ArrayLike,
-                                L: np.ndarray, inertia: ArrayLike) -> np.ndarray:
+def chassis_mount_accelerations(
+    F0: ArrayLike, G: ArrayLike, F_R: ArrayLike, L: np.ndarray, inertia: ArrayLike
+) -> np.ndarray:
     """Chassis accelerations (N, heave, pitch[, roll]) with chassis-mounted modules: eqs.
     5-6 (and roll) with the linkage's reactions instead of ``F_S``, solved for the loop
     they close. A module's generalized mount forces are affine in its mount's
@@ -138,4 +147,4 @@ def mount_forces(R: ArrayLike, n_mount: int) -> tuple[np.ndarray, np.ndarray]:
     corners, 1 + u, n): the generalized mount forces (entries 1 .. u: F_z, M_P) at zero
     mount acceleration and per unit mount acceleration, ``G[u, v]`` = force u per unit v."""
     R = np.asarray(R)
-    return R[:, :, 0, 1:1 + n_mount], R[:, :, 1:, 1:1 + n_mount].transpose(0, 1, 3, 2)
+    return R[:, :, 0, 1 : 1 + n_mount], R[:, :, 1:, 1 : 1 + n_mount].transpose(0, 1, 3, 2)

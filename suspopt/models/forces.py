@@ -1,5 +1,6 @@
 """Force elements: the chassis above each wheel, suspension (paper eqs. 9 and 12),
 anti-roll bars (full car) and tyre (eqs. 10 and 13)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,10 +41,12 @@ class MountMotionComp(NodeComponent):
     def compute(self, inputs, outputs) -> None:
         o = self.options
         roll = o['roll']
-        outputs['z_M'] = eq.mount_motion(inputs['z_C'], inputs['theta_C'],
-                                         inputs['phi_C'] if roll else 0.0, o['a'], o['y'])
-        outputs['v_M'] = eq.mount_motion(inputs['v_C'], inputs['omega_C'],
-                                         inputs['p_C'] if roll else 0.0, o['a'], o['y'])
+        outputs['z_M'] = eq.mount_motion(
+            inputs['z_C'], inputs['theta_C'], inputs['phi_C'] if roll else 0.0, o['a'], o['y']
+        )
+        outputs['v_M'] = eq.mount_motion(
+            inputs['v_C'], inputs['omega_C'], inputs['p_C'] if roll else 0.0, o['a'], o['y']
+        )
 
 
 class SuspensionForceComp(NodeComponent):
@@ -68,8 +71,9 @@ class SuspensionForceComp(NodeComponent):
             self._setting_partials('F_S', wrt)
 
     def compute(self, inputs, outputs) -> None:
-        outputs['F_S'] = eq.suspension_force(inputs['k_S'], inputs['c_S'], inputs['z_W'],
-                                             inputs['v_W'], inputs['z_M'], inputs['v_M'])
+        outputs['F_S'] = eq.suspension_force(
+            inputs['k_S'], inputs['c_S'], inputs['z_W'], inputs['v_W'], inputs['z_M'], inputs['v_M']
+        )
 
     def compute_partials(self, inputs, partials) -> None:
         nn = self.options['num_nodes']
@@ -104,31 +108,37 @@ class AntiRollBarComp(NodeComponent):
         L, R = np.array(self.options['left']), np.array(self.options['right'])
         node = np.arange(nn)[:, None] * nc
         # F_L and F_R of each bar depend on s_L and s_R of the same node
-        rows = np.concatenate([(node + L).ravel(), (node + L).ravel(),
-                               (node + R).ravel(), (node + R).ravel()])
-        cols = np.concatenate([(node + L).ravel(), (node + R).ravel(),
-                               (node + L).ravel(), (node + R).ravel()])
+        rows = np.concatenate(
+            [(node + L).ravel(), (node + L).ravel(), (node + R).ravel(), (node + R).ravel()]
+        )
+        cols = np.concatenate(
+            [(node + L).ravel(), (node + R).ravel(), (node + L).ravel(), (node + R).ravel()]
+        )
         for wrt in ('z_W', 'z_M'):
             self.declare_partials('F_R', wrt, rows=rows, cols=cols)
-        self.declare_partials('F_R', 'k_R', rows=np.concatenate([(node + L).ravel(),
-                                                                  (node + R).ravel()]),
-                              cols=np.tile(np.tile(np.arange(nb), nn), 2))
+        self.declare_partials(
+            'F_R',
+            'k_R',
+            rows=np.concatenate([(node + L).ravel(), (node + R).ravel()]),
+            cols=np.tile(np.tile(np.arange(nb), nn), 2),
+        )
 
     def compute(self, inputs, outputs) -> None:
         o = self.options
-        outputs['F_R'] = eq.anti_roll_force(inputs['k_R'], inputs['z_W'], inputs['z_M'],
-                                            np.array(o['track']), o['left'], o['right'])
+        outputs['F_R'] = eq.anti_roll_force(
+            inputs['k_R'], inputs['z_W'], inputs['z_M'], np.array(o['track']), o['left'], o['right']
+        )
 
     def compute_partials(self, inputs, partials) -> None:
         o = self.options
         nn = o['num_nodes']
         L, R = list(o['left']), list(o['right'])
-        g = np.tile(inputs['k_R'] / np.array(o['track'])**2, nn)  # per (node, bar)
+        g = np.tile(inputs['k_R'] / np.array(o['track']) ** 2, nn)  # per (node, bar)
         d = np.concatenate([g, -g, -g, g])
         partials['F_R', 'z_W'] = d
         partials['F_R', 'z_M'] = -d
         s = inputs['z_W'] - inputs['z_M']
-        per = ((s[:, L] - s[:, R]) / np.array(o['track'])**2).ravel()
+        per = ((s[:, L] - s[:, R]) / np.array(o['track']) ** 2).ravel()
         partials['F_R', 'k_R'] = np.concatenate([per, -per])
 
 

@@ -11,6 +11,7 @@ left side up; ``a`` measured forward from the chassis centre of gravity (``a < 0
 rear axle), ``y`` to the left of it. The chassis point above corner c moves by
 ``z_C - a_c θ_C + y_c φ_C``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -81,8 +82,12 @@ class VehicleLayout:
 
     def track_separation(self) -> float:
         """Mean lateral distance between the left and right wheels [m] (0: one track)."""
-        pairs = [(c, d) for c in self.corners for d in self.corners
-                 if c.axle == d.axle and c.side == 1 and d.side == -1]
+        pairs = [
+            (c, d)
+            for c in self.corners
+            for d in self.corners
+            if c.axle == d.axle and c.side == 1 and d.side == -1
+        ]
         return float(np.mean([c.y - d.y for c, d in pairs])) if pairs else 0.0
 
     def anti_roll_pairs(self, axles: tuple[int, ...]) -> list[tuple[int, int, int]]:
@@ -101,9 +106,14 @@ def half_car(a_front: float, a_rear: float) -> VehicleLayout:
     return VehicleLayout('half_car', (Corner(0, 0, a_front, 0.0), Corner(1, 0, a_rear, 0.0)))
 
 
-def full_car(a_front: float, a_rear: float, track_front: float,
-             track_rear: float) -> VehicleLayout:
+def full_car(a_front: float, a_rear: float, track_front: float, track_rear: float) -> VehicleLayout:
     """Four wheels: front left, front right, rear left, rear right."""
-    return VehicleLayout('full_car', (
-        Corner(0, 1, a_front, 0.5 * track_front), Corner(0, -1, a_front, -0.5 * track_front),
-        Corner(1, 1, a_rear, 0.5 * track_rear), Corner(1, -1, a_rear, -0.5 * track_rear)))
+    return VehicleLayout(
+        'full_car',
+        (
+            Corner(0, 1, a_front, 0.5 * track_front),
+            Corner(0, -1, a_front, -0.5 * track_front),
+            Corner(1, 1, a_rear, 0.5 * track_rear),
+            Corner(1, -1, a_rear, -0.5 * track_rear),
+        ),
+    )

@@ -9,6 +9,7 @@ acceleration (it is affine in it). :class:`ChassisMountComp` is the chassis (eqs
 roll) with those reactions; :class:`MountResponseComp` evaluates the modules' outputs at
 the solved accelerations; :class:`MountRotationComp` turns each frame with the roll.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -67,8 +68,12 @@ class _MountComp(NodeComponent):
     def _add_response(self) -> tuple[int, int]:
         nn, nc = self._shape
         blocks = 1 + self._L.shape[1]
-        self.add_input('response', shape=(nn, nc, blocks, self.options['width']), units=None,
-                       desc='module responses: at zero mount acceleration, per unit (SI)')
+        self.add_input(
+            'response',
+            shape=(nn, nc, blocks, self.options['width']),
+            units=None,
+            desc='module responses: at zero mount acceleration, per unit (SI)',
+        )
         return blocks, self.options['width']
 
     def _flat(self, n, c, b, r) -> np.ndarray:
@@ -88,8 +93,12 @@ class ChassisMountComp(_MountComp):
         self.options.declare('M', types=float, desc='chassis (sprung) mass [kg]')
         self.options.declare('I', types=float, desc='chassis pitch inertia [kg m^2]')
         self.options.declare('I_x', types=float, default=1.0, desc='roll inertia [kg m^2]')
-        self.options.declare('forces', types=tuple, default=(),
-                             desc='further vertical forces on the chassis per corner [N]')
+        self.options.declare(
+            'forces',
+            types=tuple,
+            default=(),
+            desc='further vertical forces on the chassis per corner [N]',
+        )
 
     def setup(self) -> None:
         nn, nc = self._shape
@@ -97,11 +106,12 @@ class ChassisMountComp(_MountComp):
         nu = self._L.shape[1]
         for name in self.options['forces']:
             self.add_input(name, shape=(nn, nc), units='N', desc='force on the chassis, up')
-        n, c, u = (a.ravel() for a in np.meshgrid(np.arange(nn), np.arange(nc), np.arange(nu),
-                                                  indexing='ij'))
+        n, c, u = (
+            a.ravel()
+            for a in np.meshgrid(np.arange(nn), np.arange(nc), np.arange(nu), indexing='ij')
+        )
         # F0 entries (n, c, u), then G entries (n, c, u, v) for each v
-        cols = [self._flat(n, c, 0, 1 + u)] + [self._flat(n, c, 1 + v, 1 + u)
-                                               for v in range(nu)]
+        cols = [self._flat(n, c, 0, 1 + u)] + [self._flat(n, c, 1 + v, 1 + u) for v in range(nu)]
         self._resp_cols = np.concatenate(cols)
         rows = np.tile(n, 1 + nu)
         for name, units in self._chassis:
@@ -133,7 +143,7 @@ class ChassisMountComp(_MountComp):
         a_M = eq.mount_accelerations(acc, L)  # (n, c, v)
         for k, (name, _) in enumerate(self._chassis):
             Wk = W[:, :, k, :]  # (n, c, u)
-            vals = [Wk.ravel()] + [(Wk * a_M[:, :, v:v + 1]).ravel() for v in range(nu)]
+            vals = [Wk.ravel()] + [(Wk * a_M[:, :, v : v + 1]).ravel() for v in range(nu)]
             partials[name, 'response'] = np.concatenate(vals)
             for f in self.options['forces']:
                 partials[name, f] = W[:, :, k, 0].ravel()
@@ -149,20 +159,27 @@ class MountResponseComp(_MountComp):
         nn, nc = self._shape
         blocks, width = self._add_response()
         nj = (width - JOINTS) // 2
-        self._targets = {'zdd_W': ((nn, nc), 'm/s**2', [ZDD_W]),
-                         'F_M': ((nn, nc), 'N', [F_Z]),
-                         'reactions': ((nn, nc, nj, 2), 'N', list(range(JOINTS, width)))}
+        self._targets = {
+            'zdd_W': ((nn, nc), 'm/s**2', [ZDD_W]),
+            'F_M': ((nn, nc), 'N', [F_Z]),
+            'reactions': ((nn, nc, nj, 2), 'N', list(range(JOINTS, width))),
+        }
         for name, units in self._chassis:
             self.add_input(name, shape=(nn,), units=units)
         for out, (shape, units, entries) in self._targets.items():
             self.add_output(out, shape=shape, units=units)
             e = np.asarray(entries)
-            n, c, j = (a.ravel() for a in np.meshgrid(np.arange(nn), np.arange(nc),
-                                                      np.arange(e.size), indexing='ij'))
+            n, c, j = (
+                a.ravel()
+                for a in np.meshgrid(np.arange(nn), np.arange(nc), np.arange(e.size), indexing='ij')
+            )
             rows = np.arange(n.size)
-            self.declare_partials(out, 'response', rows=np.tile(rows, blocks),
-                                  cols=np.concatenate([self._flat(n, c, b, e[j])
-                                                       for b in range(blocks)]))
+            self.declare_partials(
+                out,
+                'response',
+                rows=np.tile(rows, blocks),
+                cols=np.concatenate([self._flat(n, c, b, e[j]) for b in range(blocks)]),
+            )
             for name, _ in self._chassis:
                 self.declare_partials(out, name, rows=rows, cols=n)
 
@@ -182,7 +199,11 @@ class MountResponseComp(_MountComp):
             Ru = R[:, :, 1:, entries]  # (n, c, u, j)
             ones = np.ones(Ru.shape[:2] + (len(entries),))
             partials[out, 'response'] = np.concatenate(
-                [ones.ravel()] + [np.broadcast_to(a_M[:, :, v, None], ones.shape).ravel()
-                                  for v in range(L.shape[1])])
+                [ones.ravel()]
+                + [
+                    np.broadcast_to(a_M[:, :, v, None], ones.shape).ravel()
+                    for v in range(L.shape[1])
+                ]
+            )
             for k, (name, _) in enumerate(self._chassis):
                 partials[out, name] = np.einsum('ncuj,cu->ncj', Ru, L[:, :, k]).ravel()

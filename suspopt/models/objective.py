@@ -1,5 +1,6 @@
 """The objective (paper eq. 4, SPEC §5): integrands along the trajectory, their integrals
 by the collocation's quadrature, and the normalized weighted sum."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,7 @@ from suspopt.models import equations as eq
 from suspopt.models.base import NodeComponent
 
 #: units of each term's integral, by the start of its name
-TERM_UNITS = {'heave': '(m/s²)²·s', 'pitch': '(rad/s²)²·s', 'roll': '(rad/s²)²·s',
-              'wheel': 'm²·s'}
+TERM_UNITS = {'heave': '(m/s²)²·s', 'pitch': '(rad/s²)²·s', 'roll': '(rad/s²)²·s', 'wheel': 'm²·s'}
 
 
 def term_units(term: str) -> str:
@@ -42,13 +42,17 @@ class ObjectiveIntegrandComp(NodeComponent):
         ar = np.arange(nn)
         for k, (name, _) in enumerate(chassis):
             self.declare_partials('dJ_dt', name, rows=nt * ar + k, cols=ar)
-        self.declare_partials('dJ_dt', 'wheel_z',
-                              rows=(nt * ar[:, None] + len(chassis) + np.arange(nc)).ravel(),
-                              cols=np.arange(nn * nc))
+        self.declare_partials(
+            'dJ_dt',
+            'wheel_z',
+            rows=(nt * ar[:, None] + len(chassis) + np.arange(nc)).ravel(),
+            cols=np.arange(nn * nc),
+        )
 
     def compute(self, inputs, outputs) -> None:
-        outputs['dJ_dt'] = eq.objective_integrands([inputs[n] for n, _ in self._chassis()],
-                                                   inputs['wheel_z'])
+        outputs['dJ_dt'] = eq.objective_integrands(
+            [inputs[n] for n, _ in self._chassis()], inputs['wheel_z']
+        )
 
     def compute_partials(self, inputs, partials) -> None:
         for name, _ in self._chassis():
@@ -143,9 +147,11 @@ class WorstCaseGapComp(om.ExplicitComponent):
         self.add_output('gap', shape=(n,), desc='f_s - t')
         for i in range(n):
             self.declare_partials('gap', f'f{i}', rows=[i], cols=[0], val=1.0)
-        self.declare_partials('gap', 't', rows=np.arange(n), cols=np.zeros(n, dtype=int),
-                              val=-np.ones(n))
+        self.declare_partials(
+            'gap', 't', rows=np.arange(n), cols=np.zeros(n, dtype=int), val=-np.ones(n)
+        )
 
     def compute(self, inputs, outputs) -> None:
-        outputs['gap'] = np.array([inputs[f'f{i}'][0] for i in range(self.options['n'])]) \
-            - inputs['t'][0]
+        outputs['gap'] = (
+            np.array([inputs[f'f{i}'][0] for i in range(self.options['n'])]) - inputs['t'][0]
+        )

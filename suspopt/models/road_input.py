@@ -1,5 +1,6 @@
 """The road-input component: the road height under every wheel at the node times
 (SPEC §4, paper Figure 3)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,16 +20,18 @@ class RoadInputComp(om.ExplicitComponent):
         self.options.declare('num_nodes', types=int)
         self.options.declare('tracks', types=tuple, desc='road profile of each wheel track')
         self.options.declare('speed', types=float, desc='vehicle speed [m/s]')
-        self.options.declare('offsets', types=tuple,
-                             desc='distance of each wheel behind the front axle [m]')
+        self.options.declare(
+            'offsets', types=tuple, desc='distance of each wheel behind the front axle [m]'
+        )
         self.options.declare('track_of', types=tuple, desc='wheel track of each corner')
 
     def setup(self) -> None:
         nn, nc = self.options['num_nodes'], len(self.options['offsets'])
         self.add_input('time', shape=(nn,), units='s')
         self.add_output('delta', shape=(nn, nc), units='m', desc='road height under each wheel')
-        self.declare_partials('delta', 'time', rows=np.arange(nn * nc),
-                              cols=np.repeat(np.arange(nn), nc))
+        self.declare_partials(
+            'delta', 'time', rows=np.arange(nn * nc), cols=np.repeat(np.arange(nn), nc)
+        )
         self._memo: tuple[bytes, np.ndarray, np.ndarray] | None = None
 
     def heights(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -41,8 +44,9 @@ class RoadInputComp(om.ExplicitComponent):
             for k, road in enumerate(o['tracks']):
                 cols = [c for c, tr in enumerate(o['track_of']) if tr == k]
                 if cols:
-                    hk, dk = wheel_road_inputs(road, t, o['speed'],
-                                               tuple(o['offsets'][c] for c in cols))
+                    hk, dk = wheel_road_inputs(
+                        road, t, o['speed'], tuple(o['offsets'][c] for c in cols)
+                    )
                     h[:, cols], dh[:, cols] = hk.T, dk.T
             self._memo = (key, h, dh)
         return self._memo[1], self._memo[2]

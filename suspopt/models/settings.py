@@ -1,4 +1,5 @@
 """The suspension settings at each corner from the design variables (paper eq. 3)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +29,9 @@ class SuspensionSettingsComp(om.ExplicitComponent):
             kind = design_kind(n)
             self.add_input(n, val=1.0, units=DESIGN_UNITS[kind])
             rows = [i for _, i in where[n]]
-            self.declare_partials(kind, n, rows=rows, cols=np.zeros(len(rows), dtype=int),
-                                  val=np.ones(len(rows)))
+            self.declare_partials(
+                kind, n, rows=rows, cols=np.zeros(len(rows), dtype=int), val=np.ones(len(rows))
+            )
         self._where = where
 
     def compute(self, inputs, outputs) -> None:

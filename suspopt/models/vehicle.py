@@ -11,6 +11,7 @@ Node-wise inputs (Dymos targets): ``time``; chassis states ``z_C, v_C, theta_C, 
 (nodes, corners); the design variables (static). Outputs: the state rates ``zdd_C,
 thdd_C`` (``phidd_C``) and ``zdd_W``, the objective integrands ``dJ_dt`` and the forces.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -19,14 +20,19 @@ import numpy as np
 import openmdao.api as om
 
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
-from suspopt.models.forces import (AntiRollBarComp, MountMotionComp, SuspensionForceComp,
-                                   TyreForceComp, WheelLoadComp)
+from suspopt.models.forces import (
+    AntiRollBarComp,
+    MountMotionComp,
+    SuspensionForceComp,
+    TyreForceComp,
+    WheelLoadComp,
+)
 from suspopt.models.layout import VehicleLayout
 from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
 from suspopt.models.objective import ObjectiveIntegrandComp
+from suspopt.models.road_input import RoadInputComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
-from suspopt.models.road_input import RoadInputComp
 
 
 @dataclass(frozen=True)
@@ -73,32 +79,52 @@ class VehicleODE(om.Group):
         lay = spec.layout
         nc, roll = lay.n, lay.has_roll
         kw = {'num_nodes': nn, 'corners': nc}
-        self.add_subsystem('road', RoadInputComp(num_nodes=nn, tracks=spec.tracks,
-                                                 speed=spec.speed, offsets=lay.offsets(),
-                                                 track_of=tuple(c.track for c in lay.corners)),
-                           promotes_inputs=['time'], promotes_outputs=['delta'])
-        self.add_subsystem('settings', SuspensionSettingsComp(design=spec.design,
-                                                              labels=lay.labels),
-                           promotes=['*'])
-        self.add_subsystem('mount', MountMotionComp(a=lay.a, y=lay.y, roll=roll, **kw),
-                           promotes=['*'])
+        self.add_subsystem(
+            'road',
+            RoadInputComp(
+                num_nodes=nn,
+                tracks=spec.tracks,
+                speed=spec.speed,
+                offsets=lay.offsets(),
+                track_of=tuple(c.track for c in lay.corners),
+            ),
+            promotes_inputs=['time'],
+            promotes_outputs=['delta'],
+        )
+        self.add_subsystem(
+            'settings',
+            SuspensionSettingsComp(design=spec.design, labels=lay.labels),
+            promotes=['*'],
+        )
+        self.add_subsystem(
+            'mount', MountMotionComp(a=lay.a, y=lay.y, roll=roll, **kw), promotes=['*']
+        )
         forces = self.add_wheels(nn, spec)
         self.add_chassis(nn, spec, forces)
-        ins = ['zdd_C', 'thdd_C'] + (['phidd_C'] if roll else []) \
-            + [('wheel_z', self.wheel_signal)]
-        self.add_subsystem('objective_integrand', ObjectiveIntegrandComp(roll=roll, **kw),
-                           promotes_inputs=ins, promotes_outputs=['dJ_dt'])
+        ins = ['zdd_C', 'thdd_C'] + (['phidd_C'] if roll else []) + [('wheel_z', self.wheel_signal)]
+        self.add_subsystem(
+            'objective_integrand',
+            ObjectiveIntegrandComp(roll=roll, **kw),
+            promotes_inputs=ins,
+            promotes_outputs=['dJ_dt'],
+        )
 
     def add_chassis(self, nn: int, spec: VehicleSpec, forces: tuple[str, ...]) -> None:
         """Add the chassis equations (eqs. 5-6, roll) driven by the ``forces`` per corner."""
         lay = spec.layout
         kw = {'num_nodes': nn, 'corners': lay.n}
-        chassis = [('chassis_heave', ChassisHeaveComp(M=spec.M, forces=forces, **kw), 'zdd_C'),
-                   ('chassis_pitch', ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **kw),
-                    'thdd_C')]
+        chassis = [
+            ('chassis_heave', ChassisHeaveComp(M=spec.M, forces=forces, **kw), 'zdd_C'),
+            ('chassis_pitch', ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **kw), 'thdd_C'),
+        ]
         if lay.has_roll:
-            chassis.append(('chassis_roll', ChassisRollComp(y=lay.y, I_x=spec.I_x,
-                                                            forces=forces, **kw), 'phidd_C'))
+            chassis.append(
+                (
+                    'chassis_roll',
+                    ChassisRollComp(y=lay.y, I_x=spec.I_x, forces=forces, **kw),
+                    'phidd_C',
+                )
+            )
         for name, comp, out in chassis:
             self.add_subsystem(name, comp, promotes_inputs=list(forces), promotes_outputs=[out])
 
@@ -110,10 +136,14 @@ class VehicleODE(om.Group):
         left, right, track = spec.bars
         if not left:
             return False
-        self.add_subsystem('anti_roll', AntiRollBarComp(num_nodes=nn, corners=spec.layout.n,
-                                                        left=left, right=right, track=track),
-                           promotes_inputs=[('z_W', wheel), 'z_M', 'k_R'],
-                           promotes_outputs=['F_R'])
+        self.add_subsystem(
+            'anti_roll',
+            AntiRollBarComp(
+                num_nodes=nn, corners=spec.layout.n, left=left, right=right, track=track
+            ),
+            promotes_inputs=[('z_W', wheel), 'z_M', 'k_R'],
+            promotes_outputs=['F_R'],
+        )
         return True
 
 
@@ -125,8 +155,9 @@ class LowFidelityODE(VehicleODE):
         self.add_subsystem('suspension', SuspensionForceComp(**kw), promotes=['*'])
         forces = ('F_S', 'F_R') if self._add_anti_roll(nn, spec, 'z_W') else ('F_S',)
         self.add_subsystem('tyre', TyreForceComp(k_T=spec.k_T, **kw), promotes=['*'])
-        self.add_subsystem('wheel', WheelDynamicsComp(m=spec.m, forces=forces, **kw),
-                           promotes=['*'])
+        self.add_subsystem(
+            'wheel', WheelDynamicsComp(m=spec.m, forces=forces, **kw), promotes=['*']
+        )
         return forces
 
 
@@ -150,9 +181,12 @@ class MixedFidelityODE(VehicleODE):
     wheel_signal = 'q_W'
 
     def add_wheels(self, nn: int, spec: VehicleSpec) -> tuple[str, ...]:
-        from suspopt.multibody.components import (ChassisMountDynamicsComp,
-                                                  SuspensionDynamicsComp,
-                                                  SuspensionKinematicsComp)
+        from suspopt.multibody.components import (
+            ChassisMountDynamicsComp,
+            SuspensionDynamicsComp,
+            SuspensionKinematicsComp,
+        )
+
         lay = spec.layout
         kw = {'num_nodes': nn, 'corners': lay.n}
         fd = {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
@@ -161,31 +195,44 @@ class MixedFidelityODE(VehicleODE):
         if chassis:
             pose = ['z_M', 'v_M']
             if lay.has_roll:
-                self.add_subsystem('mount_rotation', MountRotationComp(
-                    side=np.array([c.side for c in lay.corners]), **kw), promotes=['*'])
+                self.add_subsystem(
+                    'mount_rotation',
+                    MountRotationComp(side=np.array([c.side for c in lay.corners]), **kw),
+                    promotes=['*'],
+                )
                 pose += ['psi_M', 'w_M']
-        self.add_subsystem('kinematics', SuspensionKinematicsComp(
-            **kw, **fd, mount=spec.mount, roll=lay.has_roll),
-            promotes_inputs=['z_W', 'v_W', *pose], promotes_outputs=['q_W', 'qd_W'])
+        self.add_subsystem(
+            'kinematics',
+            SuspensionKinematicsComp(**kw, **fd, mount=spec.mount, roll=lay.has_roll),
+            promotes_inputs=['z_W', 'v_W', *pose],
+            promotes_outputs=['q_W', 'qd_W'],
+        )
         bars = self._add_anti_roll(nn, spec, 'q_W')
-        self.add_subsystem('tyre', TyreForceComp(k_T=spec.k_T, **kw),
-                           promotes_inputs=['delta', ('z_W', 'q_W')], promotes_outputs=['F_T'])
+        self.add_subsystem(
+            'tyre',
+            TyreForceComp(k_T=spec.k_T, **kw),
+            promotes_inputs=['delta', ('z_W', 'q_W')],
+            promotes_outputs=['F_T'],
+        )
         wheel_load = 'F_T'
         if bars:
             self.add_subsystem('wheel_load', WheelLoadComp(**kw), promotes=['*'])
             wheel_load = 'F_W'
         if chassis:
-            self.add_subsystem('dynamics', ChassisMountDynamicsComp(**kw, **fd,
-                                                                    roll=lay.has_roll),
-                               promotes_inputs=['z_W', 'v_W', *pose, ('F_T', wheel_load),
-                                                'k_S', 'c_S'],
-                               promotes_outputs=['response', 'F_S'])
+            self.add_subsystem(
+                'dynamics',
+                ChassisMountDynamicsComp(**kw, **fd, roll=lay.has_roll),
+                promotes_inputs=['z_W', 'v_W', *pose, ('F_T', wheel_load), 'k_S', 'c_S'],
+                promotes_outputs=['response', 'F_S'],
+            )
             self._width = self.dynamics.width
             return ('F_R',) if bars else ()
-        self.add_subsystem('dynamics', SuspensionDynamicsComp(**kw, **fd),
-                           promotes_inputs=['z_W', 'v_W', 'z_M', 'v_M', ('F_T', wheel_load),
-                                            'k_S', 'c_S'],
-                           promotes_outputs=['zdd_W', 'F_S', 'reactions'])
+        self.add_subsystem(
+            'dynamics',
+            SuspensionDynamicsComp(**kw, **fd),
+            promotes_inputs=['z_W', 'v_W', 'z_M', 'v_M', ('F_T', wheel_load), 'k_S', 'c_S'],
+            promotes_outputs=['zdd_W', 'F_S', 'reactions'],
+        )
         return ('F_S', 'F_R') if bars else ('F_S',)
 
     def add_chassis(self, nn: int, spec: VehicleSpec, forces: tuple[str, ...]) -> None:
@@ -193,13 +240,25 @@ class MixedFidelityODE(VehicleODE):
             return super().add_chassis(nn, spec, forces)
         lay = spec.layout
         roll = lay.has_roll
-        kw = {'num_nodes': nn, 'corners': lay.n, 'a': lay.a, 'y': lay.y, 'roll': roll,
-              'side': np.array([c.side for c in lay.corners], dtype=float),
-              'width': self._width}
+        kw = {
+            'num_nodes': nn,
+            'corners': lay.n,
+            'a': lay.a,
+            'y': lay.y,
+            'roll': roll,
+            'side': np.array([c.side for c in lay.corners], dtype=float),
+            'width': self._width,
+        }
         acc = ['zdd_C', 'thdd_C'] + (['phidd_C'] if roll else [])
-        self.add_subsystem('chassis', ChassisMountComp(M=spec.M, I=spec.I, I_x=spec.I_x,
-                                                       forces=forces, **kw),
-                           promotes_inputs=['response', *forces], promotes_outputs=acc)
-        self.add_subsystem('mount_response', MountResponseComp(**kw),
-                           promotes_inputs=['response', *acc],
-                           promotes_outputs=['zdd_W', 'F_M', 'reactions'])
+        self.add_subsystem(
+            'chassis',
+            ChassisMountComp(M=spec.M, I=spec.I, I_x=spec.I_x, forces=forces, **kw),
+            promotes_inputs=['response', *forces],
+            promotes_outputs=acc,
+        )
+        self.add_subsystem(
+            'mount_response',
+            MountResponseComp(**kw),
+            promotes_inputs=['response', *acc],
+            promotes_outputs=['zdd_W', 'F_M', 'reactions'],
+        )

@@ -1,4 +1,5 @@
 """Wheels (unsprung masses) of the half and full car: paper eqs. 7-8."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -33,6 +33,7 @@ module's response (wheel-travel acceleration, the linkage's force and moment on 
 chassis, the joints' reactions) at zero mount acceleration and per unit mount
 acceleration, which :mod:`suspopt.models.mount` combines with the chassis equations.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -53,14 +54,23 @@ class NodewiseBlackBox(om.ExplicitComponent):
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
         self.options.declare('corners', types=int, default=1)
-        self.options.declare('modules', types=tuple, recordable=False,
-                             desc='the multibody suspension of every corner (the black box)')
+        self.options.declare(
+            'modules',
+            types=tuple,
+            recordable=False,
+            desc='the multibody suspension of every corner (the black box)',
+        )
         self.options.declare('fd_form', default='forward', values=('forward', 'central'))
-        self.options.declare('fd_step', default=1e-6, types=float,
-                             desc='absolute FD step, in the SI units of every input')
+        self.options.declare(
+            'fd_step',
+            default=1e-6,
+            types=float,
+            desc='absolute FD step, in the SI units of every input',
+        )
 
-    def declare_nodewise_fd(self, outputs: dict[str, int], inputs: list[str],
-                            settings: tuple[str, ...] = ()) -> None:
+    def declare_nodewise_fd(
+        self, outputs: dict[str, int], inputs: list[str], settings: tuple[str, ...] = ()
+    ) -> None:
         """Partials of each output (``outputs[name]`` values per node and corner) w.r.t.
         each (nodes, corners) input — one block of rows per entry, in that entry's column —
         and w.r.t. each per-corner setting (corners,) — every node of its corner.
@@ -76,8 +86,9 @@ class NodewiseBlackBox(om.ExplicitComponent):
             for wrt in inputs:
                 self.declare_partials(of, wrt, rows=rows, cols=np.repeat(np.arange(n), width))
             for wrt in settings:
-                self.declare_partials(of, wrt, rows=rows,
-                                      cols=np.repeat(np.tile(np.arange(nc), nn), width))
+                self.declare_partials(
+                    of, wrt, rows=rows, cols=np.repeat(np.tile(np.arange(nc), nn), width)
+                )
 
     def groups(self) -> list[tuple[SuspensionModule, list[int]]]:
         """The corners of each distinct module (analysed in one batch)."""
@@ -150,8 +161,9 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
     def initialize(self) -> None:
         super().initialize()
         self.options.declare('mount', default='ground', values=('ground', 'chassis'))
-        self.options.declare('roll', types=bool, default=False,
-                             desc='chassis mount: the frames turn with the roll')
+        self.options.declare(
+            'roll', types=bool, default=False, desc='chassis mount: the frames turn with the roll'
+        )
 
     def setup(self) -> None:
         shape = (self.options['num_nodes'], self.options['corners'])
@@ -166,8 +178,9 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
         z, v = values['z_W'], values['v_W']
         out = {n: np.empty_like(z) for n in self.OUTPUTS}
         for mod, cols in self.groups():
-            kin = mod.kinematics(z[:, cols].ravel(), v[:, cols].ravel(),
-                                 pose=mount_pose(self, values, cols))
+            kin = mod.kinematics(
+                z[:, cols].ravel(), v[:, cols].ravel(), pose=mount_pose(self, values, cols)
+            )
             for n in self.OUTPUTS:
                 out[n][:, cols] = getattr(kin, n).reshape(z.shape[0], len(cols))
         return out
@@ -193,8 +206,12 @@ def mount_pose(comp: NodewiseBlackBox, values: dict[str, np.ndarray], cols: list
     flat = {k: values[k][:, cols].ravel() for k in ('z_M', 'v_M')}
     zero = np.zeros_like(flat['z_M'])
     roll = comp.options['roll']
-    return (flat['z_M'], flat['v_M'], values['psi_M'][:, cols].ravel() if roll else zero,
-            values['w_M'][:, cols].ravel() if roll else zero)
+    return (
+        flat['z_M'],
+        flat['v_M'],
+        values['psi_M'][:, cols].ravel() if roll else zero,
+        values['w_M'][:, cols].ravel() if roll else zero,
+    )
 
 
 class SuspensionDynamicsComp(NodewiseBlackBox):
@@ -226,10 +243,17 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
         self.add_output('zdd_W', shape=shape, units='m/s**2', desc='wheel travel acceleration')
         self.add_output('F_S', shape=shape, units='N', desc='spring force on the chassis, up')
-        self.add_output('reactions', shape=(nn, nc, nj, 2), units='N',
-                        desc='joint reaction on the first body of each joint, (x, z)')
-        self.declare_nodewise_fd({'zdd_W': 1, 'F_S': 1, 'reactions': 2 * nj},
-                                 list(self.NODE_INPUTS), settings=('k_S', 'c_S'))
+        self.add_output(
+            'reactions',
+            shape=(nn, nc, nj, 2),
+            units='N',
+            desc='joint reaction on the first body of each joint, (x, z)',
+        )
+        self.declare_nodewise_fd(
+            {'zdd_W': 1, 'F_S': 1, 'reactions': 2 * nj},
+            list(self.NODE_INPUTS),
+            settings=('k_S', 'c_S'),
+        )
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         z = values['z_W']
@@ -241,11 +265,12 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
             k_S = np.tile(values['k_S'][cols], nn)
             c_S = np.tile(values['c_S'][cols], nn)
             kin = mod.kinematics(flat['z_W'], flat['v_W'])
-            acc, force, reac = mod.dynamics(kin.state, flat['z_M'], flat['v_M'], k_S, c_S,
-                                            flat['F_T'])
+            acc, force, reac = mod.dynamics(
+                kin.state, flat['z_M'], flat['v_M'], k_S, c_S, flat['F_T']
+            )
             zdd[:, cols] = acc.reshape(nn, len(cols))
             F_S[:, cols] = force.reshape(nn, len(cols))
-            reactions[:, cols, :reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
+            reactions[:, cols, : reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
         return {'zdd_W': zdd, 'F_S': F_S, 'reactions': reactions}
 
 
@@ -263,8 +288,9 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
 
     def initialize(self) -> None:
         super().initialize()
-        self.options.declare('roll', types=bool, default=False,
-                             desc='the frames turn with the roll')
+        self.options.declare(
+            'roll', types=bool, default=False, desc='the frames turn with the roll'
+        )
         self.options.declare('mount', default='chassis', values=('chassis',))
 
     @property
@@ -281,11 +307,18 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
-        self.add_output('response', shape=(nn, nc, self._blocks, self.width), units=None,
-                        desc='module response (SI units), blocks: a = 0, per unit a')
+        self.add_output(
+            'response',
+            shape=(nn, nc, self._blocks, self.width),
+            units=None,
+            desc='module response (SI units), blocks: a = 0, per unit a',
+        )
         self.add_output('F_S', shape=shape, units='N', desc='spring force on its chassis end')
-        self.declare_nodewise_fd({'response': self._blocks * self.width, 'F_S': 1},
-                                 ['z_W', 'v_W', *pose, 'F_T'], settings=('k_S', 'c_S'))
+        self.declare_nodewise_fd(
+            {'response': self._blocks * self.width, 'F_S': 1},
+            ['z_W', 'v_W', *pose, 'F_T'],
+            settings=('k_S', 'c_S'),
+        )
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         z = values['z_W']
@@ -293,12 +326,18 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         resp = np.zeros(z.shape + (self._blocks, self.width))
         F_S = np.empty_like(z)
         for mod, cols in self.groups():
-            kin = mod.kinematics(z[:, cols].ravel(), values['v_W'][:, cols].ravel(),
-                                 pose=mount_pose(self, values, cols))
-            R, force = mod.mount_response(kin, np.tile(values['k_S'][cols], nn),
-                                          np.tile(values['c_S'][cols], nn),
-                                          values['F_T'][:, cols].ravel(),
-                                          rotation=self.options['roll'])
-            resp[:, cols, :, :R.shape[2]] = R.reshape(nn, len(cols), self._blocks, -1)
+            kin = mod.kinematics(
+                z[:, cols].ravel(),
+                values['v_W'][:, cols].ravel(),
+                pose=mount_pose(self, values, cols),
+            )
+            R, force = mod.mount_response(
+                kin,
+                np.tile(values['k_S'][cols], nn),
+                np.tile(values['c_S'][cols], nn),
+                values['F_T'][:, cols].ravel(),
+                rotation=self.options['roll'],
+            )
+            resp[:, cols, :, : R.shape[2]] = R.reshape(nn, len(cols), self._blocks, -1)
             F_S[:, cols] = force.reshape(nn, len(cols))
         return {'response': resp, 'F_S': F_S}

@@ -16,6 +16,7 @@ suspension spring (the ``spring`` role):
 * track change: lateral displacement of the tyre load's marker (the contact patch),
   positive outboard.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -32,14 +33,22 @@ from suspopt.multibody.solver import PlanarMultibodySolver
 #: the study (SPEC §1)
 DEFAULT_SPRING_RATE = 30000.0
 #: columns of the table: key, heading, unit scale for printing
-COLUMNS = (('travel', 'wheel travel [mm]', 1e3),
-           ('spring_deflection', 'spring deflection [mm]', 1e3),
-           ('motion_ratio', 'motion ratio [-]', 1.0), ('wheel_rate', 'wheel rate [N/mm]', 1e-3),
-           ('camber', 'camber [deg]', 1.0), ('track_change', 'track change [mm]', 1e3))
+COLUMNS = (
+    ('travel', 'wheel travel [mm]', 1e3),
+    ('spring_deflection', 'spring deflection [mm]', 1e3),
+    ('motion_ratio', 'motion ratio [-]', 1.0),
+    ('wheel_rate', 'wheel rate [N/mm]', 1e-3),
+    ('camber', 'camber [deg]', 1.0),
+    ('track_change', 'track change [mm]', 1e3),
+)
 
 
-def kinematic_curves(mechanism: Mechanism | str, travel: tuple[float, float] | None = None,
-                     k: float | None = None, points: int = 21) -> dict[str, Any]:
+def kinematic_curves(
+    mechanism: Mechanism | str,
+    travel: tuple[float, float] | None = None,
+    k: float | None = None,
+    points: int = 21,
+) -> dict[str, Any]:
     """The curves at ``points`` wheel travels spanning ``travel`` [m] (default: the
     mechanism's travel range), for spring rate ``k`` [N/m] (default: the spring's in the
     file, or :data:`DEFAULT_SPRING_RATE` if that is zero). Returns plain arrays per
@@ -50,19 +59,25 @@ def kinematic_curves(mechanism: Mechanism | str, travel: tuple[float, float] | N
     roles = mech.roles
     lo, hi = mech.travel if travel is None else travel
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi) or points < 2:
-        raise ConfigError(f'travel: need min < max and at least 2 points, got '
-                          f'[{lo}, {hi}] with {points} points')
+        raise ConfigError(
+            f'travel: need min < max and at least 2 points, got [{lo}, {hi}] with {points} points'
+        )
     spring = mech.force(roles['spring'])
-    k = float(spring.stiffness if k is None and spring.stiffness > 0 else
-              DEFAULT_SPRING_RATE if k is None else k)
+    k = float(
+        spring.stiffness
+        if k is None and spring.stiffness > 0
+        else DEFAULT_SPRING_RATE
+        if k is None
+        else k
+    )
     wheel = s.marker_names.index(roles['wheel_marker'])
     patch = s.marker_names.index(mech.force(roles['tyre_load']).marker)
     body = s.body_names.index(mech.marker(roles['wheel_marker']).body)
     ref = s.marker_reference()
     target = np.linspace(lo, hi, points)
-    z = target + s.q0[s.ind[0]]                  # the wheel marker moves about like z
+    z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
     try:
-        for _ in range(30):                      # Newton on w(z) = target, all at once
+        for _ in range(30):  # Newton on w(z) = target, all at once
             q = s.positions(z[:, None])
             qd = s.velocities(q, np.ones((points, 1)))
             w = s.marker_positions(q)[:, wheel, 1] - ref[wheel, 1]
@@ -71,34 +86,47 @@ def kinematic_curves(mechanism: Mechanism | str, travel: tuple[float, float] | N
                 break
             z = z - (w - target) / w1
         else:
-            raise MultibodyError('the wheel travel does not follow the independent '
-                                 'coordinate (Newton on the travel did not converge)')
+            raise MultibodyError(
+                'the wheel travel does not follow the independent '
+                'coordinate (Newton on the travel did not converge)'
+            )
         qdd = s.accelerations(q, qd, np.zeros((points, 1)))
     except MultibodyError as err:
-        raise ConfigError(f'travel: {mech.name} cannot follow the wheel travel '
-                          f'[{lo:g}, {hi:g}] m: '
-                          + str(err).removeprefix(f'{mech.name}: ')) from None
+        raise ConfigError(
+            f'travel: {mech.name} cannot follow the wheel travel '
+            f'[{lo:g}, {hi:g}] m: ' + str(err).removeprefix(f'{mech.name}: ')
+        ) from None
     w2 = s.marker_accelerations(q, qd, qdd)[:, wheel, 1]
-    sp = s.spring(roles['spring'], q, qd, {roles['spring']: {'stiffness': 0.0, 'damping': 0.0}},
-                  qdd=qdd)
+    sp = s.spring(
+        roles['spring'], q, qd, {roles['spring']: {'stiffness': 0.0, 'damping': 0.0}}, qdd=qdd
+    )
     s_w = sp.rate / w1
     s_ww = (sp.acceleration - s_w * w2) / w1**2
-    return {'name': mech.name, 'spring_rate': k, 'travel': w,
-            'independent': z - s.q0[s.ind[0]],
-            'spring_deflection': sp.deflection, 'motion_ratio': -s_w,
-            'wheel_rate': k * (s_w**2 + sp.deflection * s_ww),
-            'camber': -np.degrees(q[:, 3 * body + 2] - s.q0[3 * body + 2]),
-            'track_change': s.marker_positions(q)[:, patch, 0] - ref[patch, 0]}
+    return {
+        'name': mech.name,
+        'spring_rate': k,
+        'travel': w,
+        'independent': z - s.q0[s.ind[0]],
+        'spring_deflection': sp.deflection,
+        'motion_ratio': -s_w,
+        'wheel_rate': k * (s_w**2 + sp.deflection * s_ww),
+        'camber': -np.degrees(q[:, 3 * body + 2] - s.q0[3 * body + 2]),
+        'track_change': s.marker_positions(q)[:, patch, 0] - ref[patch, 0],
+    }
 
 
 def curves_table(curves: dict[str, Any]) -> str:
     """A Markdown table of :func:`kinematic_curves`."""
-    lines = [f'{curves["name"]}: kinematic curves (spring rate {curves["spring_rate"]:g} N/m)',
-             '', '| ' + ' | '.join(h for _, h, _ in COLUMNS) + ' |',
-             '|' + '|'.join('---:' for _ in COLUMNS) + '|']
+    lines = [
+        f'{curves["name"]}: kinematic curves (spring rate {curves["spring_rate"]:g} N/m)',
+        '',
+        '| ' + ' | '.join(h for _, h, _ in COLUMNS) + ' |',
+        '|' + '|'.join('---:' for _ in COLUMNS) + '|',
+    ]
     for i in range(len(curves['travel'])):
-        lines.append('| ' + ' | '.join(_fmt(curves[key][i] * scale) for key, _, scale in COLUMNS)
-                     + ' |')
+        lines.append(
+            '| ' + ' | '.join(_fmt(curves[key][i] * scale) for key, _, scale in COLUMNS) + ' |'
+        )
     return '\n'.join(lines) + '\n'
 
 
@@ -110,13 +138,16 @@ def _fmt(x: float) -> str:
 def plot_curves(curves: dict[str, Any], path: str | Path) -> Path:
     """Motion ratio, wheel rate, camber and track change against wheel travel (PNG)."""
     import matplotlib
+
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(2, 2, figsize=(9, 6.5), sharex=True)
     w = curves['travel'] * 1e3
-    for ax, (key, head, scale) in zip(axes.ravel(), [c for c in COLUMNS
-                                                     if c[0] in ('motion_ratio', 'wheel_rate',
-                                                                 'camber', 'track_change')]):
+    for ax, (key, head, scale) in zip(
+        axes.ravel(),
+        [c for c in COLUMNS if c[0] in ('motion_ratio', 'wheel_rate', 'camber', 'track_change')],
+    ):
         ax.plot(w, curves[key] * scale, 'o-', ms=3)
         ax.set_ylabel(head)
         ax.grid(True, alpha=0.3)
@@ -130,8 +161,9 @@ def plot_curves(curves: dict[str, Any], path: str | Path) -> Path:
     return path
 
 
-def reference_wheel_rate(mechanism: Mechanism, solver: PlanarMultibodySolver | None = None
-                         ) -> tuple[float, float, float]:
+def reference_wheel_rate(
+    mechanism: Mechanism, solver: PlanarMultibodySolver | None = None
+) -> tuple[float, float, float]:
     """The wheel rate at the reference pose as ``K(k) = a k + b`` for a suspension spring
     rate ``k``: ``(a, b, MR)``, ``MR`` the spring's motion ratio there. ``K = d²V/dw²`` of
     every spring's potential along the wheel travel ``w``: ``k_j (s_w² + s s_ww) + f_p s_ww``
@@ -160,7 +192,9 @@ def reference_wheel_rate(mechanism: Mechanism, solver: PlanarMultibodySolver | N
             else:
                 b = b + spec.stiffness * (s_w**2 + dfl * s_ww) + spec.preload * s_ww
     if not (abs(w1) > 1e-9 and np.isfinite(a) and np.isfinite(b) and np.isfinite(mr)):
-        raise ConfigError(f'{mechanism.name}: suspension.wheel_marker: '
-                          f'{roles["wheel_marker"]!r} does not move vertically with the '
-                          'independent coordinate at the reference pose')
+        raise ConfigError(
+            f'{mechanism.name}: suspension.wheel_marker: '
+            f'{roles["wheel_marker"]!r} does not move vertically with the '
+            'independent coordinate at the reference pose'
+        )
     return float(a), float(b), float(mr)

@@ -14,6 +14,7 @@ Mechanisms are read from TOML (see ``data/double_wishbone.toml``, the paper's Ta
 with :func:`load_mechanism`, or built in Python from the dataclasses below. Every
 geometric input is given in the global frame at the reference pose (t = 0).
 """
+
 from __future__ import annotations
 
 import math
@@ -24,10 +25,20 @@ from pathlib import Path
 from typing import Any
 
 from suspopt.errors import ConfigError
-from suspopt.multibody.elements import (FORCE_TYPES, JOINT_TYPES, FixedJoint, ForceSpec,
-                                        JointSpec, LinearSpringDamper, PointLoad,
-                                        PrescribedJoint, PrismaticJoint, RevoluteJoint,
-                                        SpringDamper, is_spring)
+from suspopt.multibody.elements import (
+    FORCE_TYPES,
+    JOINT_TYPES,
+    FixedJoint,
+    ForceSpec,
+    JointSpec,
+    LinearSpringDamper,
+    PointLoad,
+    PrescribedJoint,
+    PrismaticJoint,
+    RevoluteJoint,
+    SpringDamper,
+    is_spring,
+)
 from suspopt.multibody.elements.base import COORDINATES
 from suspopt.multibody.reading import GROUND, Reader, close
 
@@ -92,8 +103,10 @@ class Mechanism:
             'joints': [(j.type, j.bodies) for j in self.joints],
             'markers': [(m.name, m.body) for m in self.markers],
             'loads': [(ld.name, ld.marker) for ld in self.loads],
-            'forces': [(f.type, f.name, getattr(f, 'markers', getattr(f, 'marker', None)))
-                       for f in self.forces],
+            'forces': [
+                (f.type, f.name, getattr(f, 'markers', getattr(f, 'marker', None)))
+                for f in self.forces
+            ],
             'independent': list(self.independent),
         }
 
@@ -103,7 +116,7 @@ SUSPENSION_ROLES = {
     'wheel_marker': 'marker whose vertical displacement is q^z_W (tyre spring, eq. 13)',
     'tyre_load': 'load that carries +F_T (direction points up)',
     'spring': 'force element of the suspension spring between the chassis-side mount and '
-              'the linkage, k_S and c_S (a spring type)',
+    'the linkage, k_S and c_S (a spring type)',
 }
 #: optional ``[suspension]`` key: the wheel travel range [m] the linkage must pass
 #: without locking, ``[min, max]`` (default :data:`DEFAULT_TRAVEL`)
@@ -112,16 +125,19 @@ TRAVEL_KEY = 'travel'
 
 def builtin_mechanisms() -> list[str]:
     """Names of the mechanism files shipped with suspopt."""
-    return sorted(p.name.removesuffix('.toml')
-                  for p in resources.files('suspopt.multibody').joinpath('data').iterdir()
-                  if p.name.endswith('.toml'))
+    return sorted(
+        p.name.removesuffix('.toml')
+        for p in resources.files('suspopt.multibody').joinpath('data').iterdir()
+        if p.name.endswith('.toml')
+    )
 
 
 def mechanism_path(name_or_path: str) -> Path:
     """Resolve a built-in mechanism name or a file path."""
     if name_or_path in builtin_mechanisms():
-        return Path(str(resources.files('suspopt.multibody').joinpath(
-            'data', name_or_path + '.toml')))
+        return Path(
+            str(resources.files('suspopt.multibody').joinpath('data', name_or_path + '.toml'))
+        )
     return Path(name_or_path)
 
 
@@ -134,49 +150,86 @@ def load_mechanism(name_or_path: str, *, suspension: bool = False) -> Mechanism:
         with path.open('rb') as fh:
             data = tomllib.load(fh)
     except FileNotFoundError:
-        raise ConfigError(f'mechanism file not found: {path} '
-                          f'(built-in: {", ".join(builtin_mechanisms())})') from None
+        raise ConfigError(
+            f'mechanism file not found: {path} (built-in: {", ".join(builtin_mechanisms())})'
+        ) from None
     except (OSError, tomllib.TOMLDecodeError) as err:
         raise ConfigError(f'cannot read mechanism file {path}: {err}') from None
     return mechanism_from_dict(data, source=str(path), suspension=suspension)
 
 
-def mechanism_from_dict(data: dict[str, Any], source: str = 'mechanism',
-                        suspension: bool = False) -> Mechanism:
+def mechanism_from_dict(
+    data: dict[str, Any], source: str = 'mechanism', suspension: bool = False
+) -> Mechanism:
     """Build and validate a :class:`Mechanism` from the TOML structure (see the data files)."""
     rd = Reader(source)
-    rd.table(data, '', {'name': False, 'gravity': False, 'bodies': True, 'joints': True,
-                        'markers': False, 'loads': False, 'forces': False,
-                        'independent': True, 'suspension': suspension})
+    rd.table(
+        data,
+        '',
+        {
+            'name': False,
+            'gravity': False,
+            'bodies': True,
+            'joints': True,
+            'markers': False,
+            'loads': False,
+            'forces': False,
+            'independent': True,
+            'suspension': suspension,
+        },
+    )
     bodies, names = [], set()
     for i, b in enumerate(_list_of_tables(rd, data, 'bodies')):
         w = f'bodies[{i}]'
-        rd.table(b, w, {'name': True, 'mass': True, 'inertia': True, 'position': True,
-                        'angle': False, 'fixed': False})
+        rd.table(
+            b,
+            w,
+            {
+                'name': True,
+                'mass': True,
+                'inertia': True,
+                'position': True,
+                'angle': False,
+                'fixed': False,
+            },
+        )
         fixed = b.get('fixed', False)
         if not isinstance(fixed, bool):
             rd.err(f'{w}.fixed', f'must be true or false, got {fixed!r}')
-        bodies.append(Body(name=rd.name(b, w, names),
-                           mass=rd.number(b, 'mass', w, positive=True),
-                           inertia=rd.number(b, 'inertia', w, positive=True),
-                           position=rd.vec2(b, 'position', w),
-                           angle=rd.number(b, 'angle', w, default=0.0),
-                           fixed=bool(fixed)))
+        bodies.append(
+            Body(
+                name=rd.name(b, w, names),
+                mass=rd.number(b, 'mass', w, positive=True),
+                inertia=rd.number(b, 'inertia', w, positive=True),
+                position=rd.vec2(b, 'position', w),
+                angle=rd.number(b, 'angle', w, default=0.0),
+                fixed=bool(fixed),
+            )
+        )
     rd.body_names = [b.name for b in bodies]
 
     markers, mnames = [], set()
     for i, m in enumerate(_list_of_tables(rd, data, 'markers')):
         w = f'markers[{i}]'
         rd.table(m, w, {'name': True, 'body': True, 'point': True})
-        mk = Marker(name=rd.name(m, w, mnames),
-                    body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
-                    point=rd.vec2(m, 'point', w))
+        mk = Marker(
+            name=rd.name(m, w, mnames),
+            body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
+            point=rd.vec2(m, 'point', w),
+        )
         markers.append(mk)
         rd.markers[mk.name] = (mk.body, mk.point)
 
     joints = _elements(rd, data, 'joints', JOINT_TYPES, 'joint', default_type='revolute')
-    loads = _elements(rd, data, 'loads', {'point_load': PointLoad}, 'load',
-                      default_type='point_load', seen=(seen := set()))
+    loads = _elements(
+        rd,
+        data,
+        'loads',
+        {'point_load': PointLoad},
+        'load',
+        default_type='point_load',
+        seen=(seen := set()),
+    )
     forces = _elements(rd, data, 'forces', FORCE_TYPES, 'force', seen=seen)
 
     independent = []
@@ -185,8 +238,10 @@ def mechanism_from_dict(data: dict[str, Any], source: str = 'mechanism',
         rd.table(c, w, {'body': True, 'coordinate': True})
         b = rd.body(c.get('body'), f'{w}.body', allow_ground=False)
         if c.get('coordinate') not in COORDINATES:
-            rd.err(f'{w}.coordinate', f'must be one of {", ".join(COORDINATES)}, '
-                   f'got {c.get("coordinate")!r}')
+            rd.err(
+                f'{w}.coordinate',
+                f'must be one of {", ".join(COORDINATES)}, got {c.get("coordinate")!r}',
+            )
         if any(bd.name == b and bd.fixed for bd in bodies):
             rd.err(f'{w}.body', f'{b!r} is fixed and cannot be an independent coordinate')
         independent.append((b, str(c.get('coordinate'))))
@@ -194,24 +249,47 @@ def mechanism_from_dict(data: dict[str, Any], source: str = 'mechanism',
     roles: dict[str, str] = {}
     travel = None
     if suspension:
-        fixed = ({b.name for b in bodies if b.fixed} | {GROUND}
-                 | {b for j in joints if isinstance(j, FixedJoint) and GROUND in j.bodies
-                    for b in j.bodies})
+        fixed = (
+            {b.name for b in bodies if b.fixed}
+            | {GROUND}
+            | {
+                b
+                for j in joints
+                if isinstance(j, FixedJoint) and GROUND in j.bodies
+                for b in j.bodies
+            }
+        )
         roles, travel = _suspension_roles(rd, data, loads + forces, independent, fixed)
 
-    mech = Mechanism(name=str(data.get('name', Path(source).stem)), bodies=tuple(bodies),
-                     joints=tuple(joints), markers=tuple(markers), loads=tuple(loads),
-                     independent=tuple(independent),
-                     gravity=rd.vec2({'gravity': data.get('gravity', [0.0, 0.0])}, 'gravity', '')
-                     if 'gravity' in data else (0.0, 0.0),
-                     forces=tuple(forces), roles=roles, travel=travel)
+    mech = Mechanism(
+        name=str(data.get('name', Path(source).stem)),
+        bodies=tuple(bodies),
+        joints=tuple(joints),
+        markers=tuple(markers),
+        loads=tuple(loads),
+        independent=tuple(independent),
+        gravity=rd.vec2({'gravity': data.get('gravity', [0.0, 0.0])}, 'gravity', '')
+        if 'gravity' in data
+        else (0.0, 0.0),
+        forces=tuple(forces),
+        roles=roles,
+        travel=travel,
+    )
     if rd.errors:
         raise ConfigError(rd.errors)
     return mech
 
 
-def _elements(rd: Reader, data: dict, key: str, types: dict[str, type], kind: str, *,
-              default_type: str | None = None, seen: set[str] | None = None) -> list:
+def _elements(
+    rd: Reader,
+    data: dict,
+    key: str,
+    types: dict[str, type],
+    kind: str,
+    *,
+    default_type: str | None = None,
+    seen: set[str] | None = None,
+) -> list:
     """Read ``[[key]]`` tables, each by the spec class of its ``type``."""
     out, seen = [], set() if seen is None else seen
     for i, table in enumerate(_list_of_tables(rd, data, key)):
@@ -222,9 +300,15 @@ def _elements(rd: Reader, data: dict, key: str, types: dict[str, type], kind: st
             typ = table.get('type', default_type)
             if not isinstance(typ, (str, type(None))) or typ not in types:
                 have = sorted(types)
-                rd.err(f'{w}.type', ('missing value' if typ is None else
-                                     f'unknown {kind} type {typ!r}{close(str(typ), have)}')
-                       + f' (types: {", ".join(have)})')
+                rd.err(
+                    f'{w}.type',
+                    (
+                        'missing value'
+                        if typ is None
+                        else f'unknown {kind} type {typ!r}{close(str(typ), have)}'
+                    )
+                    + f' (types: {", ".join(have)})',
+                )
                 continue
             spec = types[typ]
             rd.table(table, w, spec.keys)
@@ -234,56 +318,80 @@ def _elements(rd: Reader, data: dict, key: str, types: dict[str, type], kind: st
     return out
 
 
-def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list,
-                      fixed: set[str]):
+def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list, fixed: set[str]):
     """The ``[suspension]`` table: the vehicle interface roles and the travel range."""
     sus = data.get('suspension', {})
     if not isinstance(sus, dict):
         rd.err('suspension', 'must be a table')
         sus = {}
-    rd.table(sus, 'suspension',
-             {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False})
+    rd.table(sus, 'suspension', {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False})
     if 'wheel_marker' in sus:
         rd.marker(sus['wheel_marker'], 'suspension.wheel_marker')
     by_name = {f.name: f for f in forces}
     loads = [f.name for f in forces if isinstance(f, PointLoad)]
     for key in ('tyre_load',):
         if key in sus and sus[key] not in loads:
-            rd.err(f'suspension.{key}',
-                   f'unknown load {sus[key]!r}{close(str(sus[key]), loads)}')
+            rd.err(f'suspension.{key}', f'unknown load {sus[key]!r}{close(str(sus[key]), loads)}')
         elif key in sus:
             _check_tyre_direction(rd, by_name[sus[key]], data)
     springs = [f.name for f in forces if is_spring(f)]
-    if 'spring' in sus and not (isinstance(sus['spring'], str) and sus['spring'] in by_name
-                                and is_spring(by_name[sus['spring']])):
-        rd.err('suspension.spring', f'{sus["spring"]!r} is not a spring force element '
-               + (f'(springs: {", ".join(springs)})' if springs else
-                  '(the mechanism has none: add a spring_damper or linear_spring_damper to '
-                  '[[forces]])'))
+    if 'spring' in sus and not (
+        isinstance(sus['spring'], str)
+        and sus['spring'] in by_name
+        and is_spring(by_name[sus['spring']])
+    ):
+        rd.err(
+            'suspension.spring',
+            f'{sus["spring"]!r} is not a spring force element '
+            + (
+                f'(springs: {", ".join(springs)})'
+                if springs
+                else '(the mechanism has none: add a spring_damper or linear_spring_damper to '
+                '[[forces]])'
+            ),
+        )
     elif 'spring' in sus:
         ends = [rd.markers[m][0] for m in by_name[sus['spring']].markers if m in rd.markers]
         on_chassis = [b for b in ends if b in fixed]
         if len(ends) == 2 and len(on_chassis) != 1:
-            rd.err('suspension.spring', f'{sus["spring"]!r} must connect the chassis side (a '
-                   f'fixed body or the ground) to the linkage; its ends are on {ends}')
+            rd.err(
+                'suspension.spring',
+                f'{sus["spring"]!r} must connect the chassis side (a '
+                f'fixed body or the ground) to the linkage; its ends are on {ends}',
+            )
     else:
-        rd.err('suspension.spring', 'missing value: name the suspension spring ('
-               + (f'springs: {", ".join(springs)})' if springs else
-                  'the mechanism has none: add a spring_damper or linear_spring_damper to '
-                  '[[forces]])'))
+        rd.err(
+            'suspension.spring',
+            'missing value: name the suspension spring ('
+            + (
+                f'springs: {", ".join(springs)})'
+                if springs
+                else 'the mechanism has none: add a spring_damper or linear_spring_damper to '
+                '[[forces]])'
+            ),
+        )
     travel = DEFAULT_TRAVEL
     if TRAVEL_KEY in sus:
         lo, hi = rd.vec2(sus, TRAVEL_KEY, 'suspension')
         if not lo < 0.0 < hi:
-            rd.err(f'suspension.{TRAVEL_KEY}', f'must be [min, max] with min < 0 < max '
-                   f'(wheel travel from the reference pose, m), got {[lo, hi]}')
+            rd.err(
+                f'suspension.{TRAVEL_KEY}',
+                f'must be [min, max] with min < 0 < max '
+                f'(wheel travel from the reference pose, m), got {[lo, hi]}',
+            )
         travel = (lo, hi)
     if len(independent) != 1:
-        rd.err('independent', 'a suspension module needs exactly one independent '
-               f'coordinate (the wheel travel), got {len(independent)}')
+        rd.err(
+            'independent',
+            'a suspension module needs exactly one independent '
+            f'coordinate (the wheel travel), got {len(independent)}',
+        )
     elif independent[0][1] != 'z':
-        rd.err('independent[0].coordinate', "a suspension module is driven by a vertical "
-               f"wheel travel: must be 'z', got {independent[0][1]!r}")
+        rd.err(
+            'independent[0].coordinate',
+            'a suspension module is driven by a vertical '
+            f"wheel travel: must be 'z', got {independent[0][1]!r}",
+        )
     roles = {k: str(v) for k, v in sus.items() if k in SUSPENSION_ROLES}
     return roles, travel
 
@@ -300,9 +408,12 @@ def _check_tyre_direction(rd: Reader, load: PointLoad, data: dict) -> None:
             where = f'{table}[{names.index(load.name)}].direction'
             break
     rd.element = f'(load {load.name!r}, the suspension.tyre_load)'
-    rd.err(where, 'the tyre load must point straight up, [0.0, 1.0] (it carries +F_T, the '
-           f'road pushing the wheel up: eq. 13), got {list(load.direction)}'
-           + (': it points down' if dz < 0.0 else ''))
+    rd.err(
+        where,
+        'the tyre load must point straight up, [0.0, 1.0] (it carries +F_T, the '
+        f'road pushing the wheel up: eq. 13), got {list(load.direction)}'
+        + (': it points down' if dz < 0.0 else ''),
+    )
     rd.element = ''
 
 
@@ -314,7 +425,23 @@ def _list_of_tables(rd: Reader, data: dict, key: str) -> list[dict]:
     return val
 
 
-__all__ = ['COORDINATES', 'DEFAULT_TRAVEL', 'GROUND', 'SUSPENSION_ROLES', 'Body',
-           'FixedJoint', 'LinearSpringDamper', 'Marker', 'Mechanism', 'PointLoad',
-           'PrescribedJoint', 'PrismaticJoint', 'RevoluteJoint', 'SpringDamper',
-           'builtin_mechanisms', 'load_mechanism', 'mechanism_from_dict', 'mechanism_path']
+__all__ = [
+    'COORDINATES',
+    'DEFAULT_TRAVEL',
+    'GROUND',
+    'SUSPENSION_ROLES',
+    'Body',
+    'FixedJoint',
+    'LinearSpringDamper',
+    'Marker',
+    'Mechanism',
+    'PointLoad',
+    'PrescribedJoint',
+    'PrismaticJoint',
+    'RevoluteJoint',
+    'SpringDamper',
+    'builtin_mechanisms',
+    'load_mechanism',
+    'mechanism_from_dict',
+    'mechanism_path',
+]

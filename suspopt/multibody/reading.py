@@ -3,6 +3,7 @@
 Every message names its key (``joints[1].axis``) and, for an element, the element
 (``(joint 'strut')``), so that a file with several mistakes is fixed in one pass.
 """
+
 from __future__ import annotations
 
 import difflib
@@ -42,8 +43,16 @@ class Reader:
             if required and k not in data:
                 self.err(f'{key}.{k}' if key else k, 'missing value')
 
-    def number(self, data: dict, key: str, where: str, *, positive: bool = False,
-               nonnegative: bool = False, default: float | None = None) -> float:
+    def number(
+        self,
+        data: dict,
+        key: str,
+        where: str,
+        *,
+        positive: bool = False,
+        nonnegative: bool = False,
+        default: float | None = None,
+    ) -> float:
         val = data.get(key, default)
         if val is None:
             return math.nan
@@ -61,9 +70,11 @@ class Reader:
     def vec2(self, data: dict, key: str, where: str, default: Any = None) -> tuple[float, float]:
         val = data.get(key, default)
         where = f'{where}.{key}' if where else key
-        if (not isinstance(val, (list, tuple)) or len(val) != 2
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                           for v in val)):
+        if (
+            not isinstance(val, (list, tuple))
+            or len(val) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
+        ):
             self.err(where, f'must be two numbers [x, z], got {val!r}')
             return (math.nan, math.nan)
         if not all(math.isfinite(v) for v in val):
@@ -73,9 +84,13 @@ class Reader:
     def unit_axis(self, data: dict, key: str, where: str) -> tuple[float, float]:
         """A direction given by any non-zero finite vector, returned normalized."""
         val = data.get(key)
-        ok = (isinstance(val, (list, tuple)) and len(val) == 2
-              and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
-              and all(math.isfinite(v) for v in val) and math.hypot(*val) > 1e-12)
+        ok = (
+            isinstance(val, (list, tuple))
+            and len(val) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
+            and all(math.isfinite(v) for v in val)
+            and math.hypot(*val) > 1e-12
+        )
         if not ok:
             self.err(f'{where}.{key}', f'must be a non-zero finite vector [x, z], got {val!r}')
             return (math.nan, math.nan)
@@ -95,8 +110,7 @@ class Reader:
     def body(self, val: Any, key: str, allow_ground: bool) -> str:
         ok = self.body_names + ([GROUND] if allow_ground else [])
         if val not in ok:
-            self.err(key, f'unknown body {val!r}{close(str(val), ok)} '
-                     f'(bodies: {", ".join(ok)})')
+            self.err(key, f'unknown body {val!r}{close(str(val), ok)} (bodies: {", ".join(ok)})')
         return str(val)
 
     def body_pair(self, data: dict, where: str) -> tuple[str, str]:

@@ -15,10 +15,12 @@ Two ways of keeping the constraints satisfied, selectable by ``method``:
 
 Both integrate with SciPy's DOP853 (adaptive 8th-order Runge-Kutta).
 """
+
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -46,17 +48,25 @@ class MechanismTrajectory:
     info: dict[str, Any] = field(default_factory=dict)
 
 
-def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float],
-                       q_ind0: np.ndarray, qd_ind0: np.ndarray, *,
-                       loads: LoadFunction | None = None,
-                       forces: ForceFunction | None = None,
-                       params: Params | None = None,
-                       motion: MotionFunction | None = None,
-                       method: str = 'partitioned', t_eval: np.ndarray | None = None,
-                       rtol: float = 1e-10, atol: float = 1e-12,
-                       baumgarte: tuple[float, float] = (10.0, 10.0),
-                       max_step: float = np.inf, q_guess: np.ndarray | None = None,
-                       max_evaluations: int = 200_000) -> MechanismTrajectory:
+def simulate_mechanism(
+    solver: PlanarMultibodySolver,
+    t_span: tuple[float, float],
+    q_ind0: np.ndarray,
+    qd_ind0: np.ndarray,
+    *,
+    loads: LoadFunction | None = None,
+    forces: ForceFunction | None = None,
+    params: Params | None = None,
+    motion: MotionFunction | None = None,
+    method: str = 'partitioned',
+    t_eval: np.ndarray | None = None,
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    baumgarte: tuple[float, float] = (10.0, 10.0),
+    max_step: float = np.inf,
+    q_guess: np.ndarray | None = None,
+    max_evaluations: int = 200_000,
+) -> MechanismTrajectory:
     """Simulate a mechanism from consistent initial conditions built from the independent
     coordinates ``q_ind0`` and rates ``qd_ind0`` (absolute values, shape (dof,)), under
     its force elements (with ``params``, see :class:`PlanarMultibodySolver`), the load
@@ -99,6 +109,7 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
 
         y0 = np.concatenate([q_ind0, qd_ind0])
     elif method == 'baumgarte':
+
         def full_state(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return y[None, :n], y[None, n:]
 
@@ -118,14 +129,17 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
             raise MultibodyError(
                 f'{solver.mechanism.name}: simulation stalled at t = {t:.6g} after '
                 f'{max_evaluations} evaluations (step size collapsed; near a singular '
-                'configuration?)')
+                'configuration?)'
+            )
         return rhs(t, y)
 
-    sol = solve_ivp(guarded, t_span, y0, method='DOP853', t_eval=t_eval, rtol=rtol,
-                    atol=atol, max_step=max_step)
+    sol = solve_ivp(
+        guarded, t_span, y0, method='DOP853', t_eval=t_eval, rtol=rtol, atol=atol, max_step=max_step
+    )
     if sol.status != 0:
-        raise MultibodyError(f'{solver.mechanism.name}: simulation failed at '
-                             f't = {sol.t[-1]:.4g}: {sol.message}')
+        raise MultibodyError(
+            f'{solver.mechanism.name}: simulation failed at t = {sol.t[-1]:.4g}: {sol.message}'
+        )
     qs, qds, qdds, lams = [], [], [], []
     for k, t in enumerate(sol.t):
         if method == 'partitioned':
@@ -138,10 +152,27 @@ def simulate_mechanism(solver: PlanarMultibodySolver, t_span: tuple[float, float
         lams.append(lam)
     q = np.concatenate(qs)
     return MechanismTrajectory(
-        t=sol.t, q=q, qd=np.concatenate(qds), qdd=np.concatenate(qdds),
+        t=sol.t,
+        q=q,
+        qd=np.concatenate(qds),
+        qdd=np.concatenate(qdds),
         lam=np.concatenate(lams),
-        info={'method': method, 'rhs_evaluations': int(sol.nfev),
-              'max_constraint_residual': float(np.max(np.abs(
-                  solver.constraints(q) if motion is None else
-                  np.concatenate([solver.constraints(q[k:k + 1], motion(t))
-                                  for k, t in enumerate(sol.t)]))))})
+        info={
+            'method': method,
+            'rhs_evaluations': int(sol.nfev),
+            'max_constraint_residual': float(
+                np.max(
+                    np.abs(
+                        solver.constraints(q)
+                        if motion is None
+                        else np.concatenate(
+                            [
+                                solver.constraints(q[k : k + 1], motion(t))
+                                for k, t in enumerate(sol.t)
+                            ]
+                        )
+                    )
+                )
+            ),
+        },
+    )

@@ -35,19 +35,29 @@ deflection, rate, tension, line of action and force at each end of a spring elem
 bodies) and :meth:`~PlanarMultibodySolver.body_reaction` (their sum on one body or the
 ground, torque about a given point; for a prescribed frame, the force that drives it).
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from suspopt.errors import ConfigError, MultibodyError
 from suspopt.multibody.elements import FixedJoint, PointLoad, PrescribedMotion
-from suspopt.multibody.elements.base import (COORDINATES, BodyPoints, CoincidenceJointGroup,
-                                             CoincidenceSet, Layout, ScalarSpringGroup, cross,
-                                             gather, perp, rot_apply)
+from suspopt.multibody.elements.base import (
+    COORDINATES,
+    BodyPoints,
+    CoincidenceJointGroup,
+    CoincidenceSet,
+    Layout,
+    ScalarSpringGroup,
+    cross,
+    gather,
+    perp,
+    rot_apply,
+)
 from suspopt.multibody.mechanism import GROUND, Mechanism
 
 #: a state where the linkage moves this many times faster than at its reference pose is
@@ -112,8 +122,7 @@ class PlanarMultibodySolver:
     suspension file) is checked to pass it without locking.
     """
 
-    def __init__(self, mechanism: Mechanism, newton_tol: float = 1e-12,
-                 newton_max_iter: int = 30):
+    def __init__(self, mechanism: Mechanism, newton_tol: float = 1e-12, newton_max_iter: int = 30):
         self.mechanism = mechanism
         self.newton_tol = newton_tol
         self.newton_max_iter = newton_max_iter
@@ -144,13 +153,18 @@ class PlanarMultibodySolver:
         mk_pts = np.array([mk.point for mk in mechanism.markers], dtype=float).reshape(-1, 2)
         self.mk_u = rot_apply(-q0e[self.mk_body, 2], mk_pts - q0e[self.mk_body, :2])
         self._markers = BodyPoints(self.mk_body, self.mk_u)
-        layout = Layout(index=idx, q0e=q0e,
-                        markers={name: (int(b), u) for name, b, u in
-                                 zip(self.marker_names, self.mk_body, self.mk_u)})
+        layout = Layout(
+            index=idx,
+            q0e=q0e,
+            markers={
+                name: (int(b), u) for name, b, u in zip(self.marker_names, self.mk_body, self.mk_u)
+            },
+        )
 
         # joints: the mechanism's, then every fixed body welded to the ground at its CG
-        specs = list(mechanism.joints) + [FixedJoint(f'fixed {b.name}', (b.name, GROUND))
-                                          for b in bodies if b.fixed]
+        specs = list(mechanism.joints) + [
+            FixedJoint(f'fixed {b.name}', (b.name, GROUND)) for b in bodies if b.fixed
+        ]
         self.nj = len(mechanism.joints)
         self.joint_names = [j.name for j in specs]
         self.joint_bodies = [tuple(j.bodies) for j in specs]
@@ -164,39 +178,56 @@ class PlanarMultibodySolver:
             g.members = np.array(members, dtype=int)
             g.rows = np.array([self.joint_rows[k] for k in members], dtype=int)
             r = g.rows.ravel()
-            g.row_index = (slice(int(r[0]), int(r[-1]) + 1)
-                           if r.size and np.array_equal(r, np.arange(r[0], r[-1] + 1)) else r)
+            g.row_index = (
+                slice(int(r[0]), int(r[-1]) + 1)
+                if r.size and np.array_equal(r, np.arange(r[0], r[-1] + 1))
+                else r
+            )
             # where each entry of its Jacobian blocks (ne, S, k, 3) goes in the flattened
             # C_q of the bodies and the ground (m, 3 (nb + 1))
-            g.flat = (g.rows[:, None, :, None] * 3 * (nb + 1)
-                      + 3 * g.bodies[:, :, None, None] + np.arange(3)).ravel()
+            g.flat = (
+                g.rows[:, None, :, None] * 3 * (nb + 1)
+                + 3 * g.bodies[:, :, None, None]
+                + np.arange(3)
+            ).ravel()
             self.joint_groups.append(g)
         self.prescribed = [name for g in self.joint_groups if g.rheonomic for name in g.names]
         # the coincidence joints (revolute, fixed) evaluated at once in the analyses: C_q is
         # their constant entries, then their arms, then the other groups' blocks
         coinc = [g for g in self.joint_groups if isinstance(g, CoincidenceJointGroup)]
-        self._coincidences = (CoincidenceSet(coinc, [g.rows for g in coinc], nb, self.m)
-                              if coinc else None)
-        self._others = [(gi, g) for gi, g in enumerate(self.joint_groups)
-                        if not isinstance(g, CoincidenceJointGroup)]
+        self._coincidences = (
+            CoincidenceSet(coinc, [g.rows for g in coinc], nb, self.m) if coinc else None
+        )
+        self._others = [
+            (gi, g)
+            for gi, g in enumerate(self.joint_groups)
+            if not isinstance(g, CoincidenceJointGroup)
+        ]
         for _, g in self._others:  # g.flat in C_q (m, n), without the ground's columns
             row, col = np.divmod(g.flat, 3 * (nb + 1))
             g.flat_keep = np.flatnonzero(col < self.n)
             g.flat_mn = (row * self.n + col)[g.flat_keep]
-        self._all_coincident = (not self._others and self.m > 0 and np.array_equal(
-            self._coincidences.rows, np.arange(self.m)))
+        self._all_coincident = (
+            not self._others
+            and self.m > 0
+            and np.array_equal(self._coincidences.rows, np.arange(self.m))
+        )
         # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
         # one matrix (2 nj, m), where that block does not depend on q
         self._first_force = np.zeros((len(specs), 2, self.m))
         for g in self.joint_groups:
-            J0 = g.jacobian(q0e[None])[0, :, 0, :, :2]        # (ne, k, 2)
-            self._first_force[g.members[:, None, None], np.arange(2)[:, None],
-                              g.rows[:, None, :]] = J0.transpose(0, 2, 1)
-        self._first_force = self._first_force[:self.nj].reshape(2 * self.nj, self.m)
+            J0 = g.jacobian(q0e[None])[0, :, 0, :, :2]  # (ne, k, 2)
+            self._first_force[
+                g.members[:, None, None], np.arange(2)[:, None], g.rows[:, None, :]
+            ] = J0.transpose(0, 2, 1)
+        self._first_force = self._first_force[: self.nj].reshape(2 * self.nj, self.m)
         self._first_force_T = np.ascontiguousarray(self._first_force.T)
         # the groups whose first-body force needs q: (group, its members among the joints)
-        self._moving_force = [(g, g.members < self.nj) for g in self.joint_groups
-                              if not g.constant_force_jacobian and np.any(g.members < self.nj)]
+        self._moving_force = [
+            (g, g.members < self.nj)
+            for g in self.joint_groups
+            if not g.constant_force_jacobian and np.any(g.members < self.nj)
+        ]
 
         # force elements: the loads, then [[forces]]
         fspecs = list(mechanism.loads) + list(mechanism.forces)
@@ -206,18 +237,23 @@ class PlanarMultibodySolver:
         for typ in dict.fromkeys(f.type for f in fspecs):
             members = [f for f in fspecs if f.type == typ]
             self.force_groups.append(type(members[0]).group(members, layout))
-        self._force_group = {name: (gi, k) for gi, g in enumerate(self.force_groups)
-                             for k, name in enumerate(g.names)}
+        self._force_group = {
+            name: (gi, k)
+            for gi, g in enumerate(self.force_groups)
+            for k, name in enumerate(g.names)
+        }
         for g in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
             g.all_zero = not any(np.any(v) for v in g.defaults.values())
             g.given = frozenset()  # parameters given at run time (see _force_values)
             scatter = np.zeros((g.bodies.size, 3, nb + 1, 3))
             scatter[np.arange(g.bodies.size), :, g.bodies.ravel()] = np.eye(3)
-            g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, :self.n]
+            g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, : self.n]
         # point-load groups: the columns of the ``loads`` array of their elements
-        self._load_columns = {gi: np.array([self.load_names.index(n) for n in g.names])
-                              for gi, g in enumerate(self.force_groups)
-                              if isinstance(g.specs[0], PointLoad)}
+        self._load_columns = {
+            gi: np.array([self.load_names.index(n) for n in g.names])
+            for gi, g in enumerate(self.force_groups)
+            if isinstance(g.specs[0], PointLoad)
+        }
         gravity = np.asarray(mechanism.gravity, dtype=float)
         self._gravity_force = None  # m g on every body (n,), None without gravity
         if np.any(gravity):
@@ -226,15 +262,17 @@ class PlanarMultibodySolver:
             self._gravity_force = Qg.ravel()
 
         # coordinate partitioning
-        self.ind = np.array([3 * idx[b] + COORDINATES.index(c)
-                             for b, c in mechanism.independent], dtype=int)
+        self.ind = np.array(
+            [3 * idx[b] + COORDINATES.index(c) for b, c in mechanism.independent], dtype=int
+        )
         self.dep = np.setdiff1d(np.arange(self.n), self.ind)
         self.dof = self.n - self.m
         if len(self.ind) != self.dof:
             raise ConfigError(
                 f'{mechanism.name}: the mechanism has {self.dof} degrees of freedom '
                 f'({self.n} coordinates, {self.m} constraint equations) but '
-                f'{len(self.ind)} independent coordinates are given')
+                f'{len(self.ind)} independent coordinates are given'
+            )
         self._mass_dep = self.mass_diag[self.dep]
         self._ind0 = int(self.ind[0]) if self.dof else 0
         Cq = self.constraint_jacobian(self.q0[None])[0]
@@ -243,14 +281,16 @@ class PlanarMultibodySolver:
             raise ConfigError(
                 f'{mechanism.name}: singular constraint Jacobian at the reference pose '
                 '(redundant or locked joints, or the independent coordinates cannot drive '
-                'the mechanism)')
+                'the mechanism)'
+            )
         # ∂q_dep/∂q_ind at the reference pose: the tangent that predicts a position
         # analysis's start, and the reference of the toggle check (see :meth:`velocities`)
         self._tangent0 = -np.linalg.solve(Cq[:, self.dep], Cq[:, self.ind])
         self.sensitivity0 = float(np.max(np.abs(self._tangent0))) or 1.0
         # C_q,dep⁻¹ on the rows of the rheonomic joints (predictor of a driven position)
-        self._drive_rows = np.concatenate([g.rows.ravel() for g in self.joint_groups
-                                           if g.rheonomic] or [np.zeros(0, dtype=int)])
+        self._drive_rows = np.concatenate(
+            [g.rows.ravel() for g in self.joint_groups if g.rheonomic] or [np.zeros(0, dtype=int)]
+        )
         E = np.zeros((self.m, self._drive_rows.size))
         E[self._drive_rows, np.arange(self._drive_rows.size)] = 1.0
         self._drive_tangent0 = np.linalg.solve(Cq[:, self.dep], E)
@@ -267,7 +307,7 @@ class PlanarMultibodySolver:
         """(N, nb+1, 3): body coordinates with the ground appended."""
         N = q.shape[0]
         qe = np.zeros((N, self.n + 3))
-        qe[:, :self.n] = q
+        qe[:, : self.n] = q
         return qe.reshape(N, self.nb + 1, 3)
 
     def _drives(self, motion: Motion | None, N: int) -> list[np.ndarray | None]:
@@ -278,8 +318,10 @@ class PlanarMultibodySolver:
             return out
         unknown = sorted(set(motion) - set(self.prescribed))
         if unknown:
-            raise ValueError(f'{self.mechanism.name}: motion given for {unknown}, which are '
-                             f'not prescribed joints (prescribed: {self.prescribed})')
+            raise ValueError(
+                f'{self.mechanism.name}: motion given for {unknown}, which are '
+                f'not prescribed joints (prescribed: {self.prescribed})'
+            )
         for gi, g in enumerate(self.joint_groups):
             if g.rheonomic and any(name in motion for name in g.names):
                 out[gi] = g.drive([motion.get(name) for name in g.names], N)
@@ -299,22 +341,27 @@ class PlanarMultibodySolver:
                 nu[:, g.rows] = g.velocity_term(d)
         return nu
 
-    def _force_values(self, N: int, loads: np.ndarray | None, params: Params | None,
-                      only: int | None = None) -> list[dict[str, np.ndarray] | None]:
+    def _force_values(
+        self, N: int, loads: np.ndarray | None, params: Params | None, only: int | None = None
+    ) -> list[dict[str, np.ndarray] | None]:
         """Per force group: each parameter's values (N, ne), the file's unless given; None
         for a group whose values are all zero (it applies no force). ``only``: that group's
         entry alone (the others None)."""
         given: dict[int, dict[str, list]] = {}
         for name, vals in (params or {}).items():
             if name not in self._force_group:
-                raise ValueError(f'{self.mechanism.name}: params given for {name!r}, which is '
-                                 f'not a force element (force elements: {self.force_names})')
+                raise ValueError(
+                    f'{self.mechanism.name}: params given for {name!r}, which is '
+                    f'not a force element (force elements: {self.force_names})'
+                )
             gi, k = self._force_group[name]
             for p, val in vals.items():
                 if p not in self.force_groups[gi].parameters:
-                    raise ValueError(f'{self.mechanism.name}: force element {name!r} has no '
-                                     f'parameter {p!r} (parameters: '
-                                     f'{", ".join(self.force_groups[gi].parameters)})')
+                    raise ValueError(
+                        f'{self.mechanism.name}: force element {name!r} has no '
+                        f'parameter {p!r} (parameters: '
+                        f'{", ".join(self.force_groups[gi].parameters)})'
+                    )
                 given.setdefault(gi, {}).setdefault(p, []).append((k, val))
         out: list[dict[str, np.ndarray] | None] = [None] * len(self.force_groups)
         for gi, g in enumerate(self.force_groups):
@@ -362,10 +409,11 @@ class PlanarMultibodySolver:
         for i, g in enumerate(self.joint_groups):
             J = g.jacobian(qe) if blocks is None else blocks[i]
             Cq[:, g.flat] = J.reshape(N, -1)
-        return Cq.reshape(N, self.m, -1)[:, :, :self.n]
+        return Cq.reshape(N, self.m, -1)[:, :, : self.n]
 
-    def _analysis(self, q: np.ndarray, drives: list[np.ndarray | None]
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    def _analysis(
+        self, q: np.ndarray, drives: list[np.ndarray | None]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """``C`` (N, m) and ``C_q`` (N, m, n) at ``q`` (N, n) at once (the position
         analysis' Newton iterations): what :meth:`constraints` and
         :meth:`constraint_jacobian` give, the coincidence joints evaluated together (and
@@ -390,9 +438,15 @@ class PlanarMultibodySolver:
             Cq[:, g.flat_mn] = J.reshape(N, -1).take(g.flat_keep, axis=1)
         return C, Cq.reshape(N, self.m, self.n), v
 
-    def _gamma_all(self, q: np.ndarray, qd: np.ndarray, drives: list[np.ndarray | None],
-                   qe: np.ndarray | None = None, qde: np.ndarray | None = None,
-                   pool: np.ndarray | None = None) -> np.ndarray:
+    def _gamma_all(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        drives: list[np.ndarray | None],
+        qe: np.ndarray | None = None,
+        qde: np.ndarray | None = None,
+        pool: np.ndarray | None = None,
+    ) -> np.ndarray:
         """:meth:`gamma` with the coincidence joints evaluated together (``qe``, ``qde``:
         :meth:`_ext` of ``q`` and ``qd``; ``pool``: the coincidence joints' at ``q``, if the
         caller has them)."""
@@ -411,8 +465,13 @@ class PlanarMultibodySolver:
             g[:, grp.row_index] = grp.gamma(qe, qde, drives[gi]).reshape(N, -1)
         return g
 
-    def constraint_rate(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None,
-                        Cq: np.ndarray | None = None) -> np.ndarray:
+    def constraint_rate(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        motion: Motion | None = None,
+        Cq: np.ndarray | None = None,
+    ) -> np.ndarray:
         """``Ċ = C_q q̇ - ν`` (N, m); zero at consistent velocities."""
         Cdot = np.einsum('nij,nj->ni', self.constraint_jacobian(q) if Cq is None else Cq, qd)
         nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
@@ -423,8 +482,9 @@ class PlanarMultibodySolver:
         (N, m)."""
         return self._gamma(self._ext(q), self._ext(qd), self._drives(motion, q.shape[0]))
 
-    def _gamma(self, qe: np.ndarray, qde: np.ndarray,
-               drives: list[np.ndarray | None]) -> np.ndarray:
+    def _gamma(
+        self, qe: np.ndarray, qde: np.ndarray, drives: list[np.ndarray | None]
+    ) -> np.ndarray:
         N = qe.shape[0]
         g = np.empty((N, self.m))
         for grp, d in zip(self.joint_groups, drives):
@@ -442,8 +502,7 @@ class PlanarMultibodySolver:
         vb = gather(self._ext(qd), self._markers.coords)
         return vb[..., :2] + arm * vb[..., 2, None]
 
-    def marker_accelerations(self, q: np.ndarray, qd: np.ndarray,
-                             qdd: np.ndarray) -> np.ndarray:
+    def marker_accelerations(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
         """Global accelerations of all markers, ``r̈ + B u φ̈ - A u φ̇²``, (N, n_markers, 2)."""
         arm = self._markers.arms(self._ext(q))
         w = gather(self._ext(qd), self._markers.phi)
@@ -455,20 +514,23 @@ class PlanarMultibodySolver:
         return self.marker_positions(self.q0[None])[0]
 
     # ---------------------------------------------------------------- forces
-    def point_force(self, q: np.ndarray, body: int, u: np.ndarray,
-                    force: np.ndarray) -> np.ndarray:
+    def point_force(self, q: np.ndarray, body: int, u: np.ndarray, force: np.ndarray) -> np.ndarray:
         """Generalized force of global ``force`` (N, 2) at body point ``u`` (body axes)."""
         N = q.shape[0]
         Q = np.zeros((N, self.n))
         phi = q[:, 3 * body + 2]
         arm = perp(rot_apply(phi, u))
-        Q[:, 3 * body:3 * body + 2] = force
+        Q[:, 3 * body : 3 * body + 2] = force
         Q[:, 3 * body + 2] = np.sum(arm * force, axis=-1)
         return Q
 
-    def generalized_forces(self, q: np.ndarray, loads: np.ndarray | None = None,
-                           qd: np.ndarray | None = None,
-                           params: Params | None = None) -> np.ndarray:
+    def generalized_forces(
+        self,
+        q: np.ndarray,
+        loads: np.ndarray | None = None,
+        qd: np.ndarray | None = None,
+        params: Params | None = None,
+    ) -> np.ndarray:
         """``Q = F_e`` (N, n): gravity plus every force element, with the point loads'
         magnitudes ``loads`` (N, n_loads; order :attr:`load_names`) and ``params``.
         ``qd`` is needed when a damper has non-zero damping. An element whose parameters
@@ -478,9 +540,14 @@ class PlanarMultibodySolver:
             return self._forces(q, None, None, values)[0]
         return self._forces(q, self._ext(q), None if qd is None else self._ext(qd), values)[0]
 
-    def _forces(self, q: np.ndarray, qe: np.ndarray | None, qde: np.ndarray | None,
-                values: list[dict[str, np.ndarray] | None],
-                geometry: dict | None = None) -> tuple[np.ndarray, list]:
+    def _forces(
+        self,
+        q: np.ndarray,
+        qe: np.ndarray | None,
+        qde: np.ndarray | None,
+        values: list[dict[str, np.ndarray] | None],
+        geometry: dict | None = None,
+    ) -> tuple[np.ndarray, list]:
         """:meth:`generalized_forces` from the groups' values, and what each group computed
         on the way (:meth:`ForceGroup.forces`; None for a group without force);
         ``geometry``: groups' :meth:`ScalarSpringGroup.geometry` at ``qe`` by group."""
@@ -491,33 +558,58 @@ class PlanarMultibodySolver:
         parts: list = [None] * len(self.force_groups)
         for gi, (grp, v) in enumerate(zip(self.force_groups, values)):
             if v is not None:
-                Qg, parts[gi] = grp.forces(qe, qde, v, None if geometry is None
-                                           else geometry.get(gi))
+                Qg, parts[gi] = grp.forces(
+                    qe, qde, v, None if geometry is None else geometry.get(gi)
+                )
                 Q += Qg.reshape(N, -1) @ grp.scatter
         return Q, parts
 
-    def spring(self, name: str, q: np.ndarray, qd: np.ndarray | None = None,
-               params: Params | None = None, qdd: np.ndarray | None = None) -> SpringState:
+    def spring(
+        self,
+        name: str,
+        q: np.ndarray,
+        qd: np.ndarray | None = None,
+        params: Params | None = None,
+        qdd: np.ndarray | None = None,
+    ) -> SpringState:
         """The spring element ``name`` at N states (rate needs ``qd``, ``ℓ̈`` also ``qdd``)."""
         gi, k = self._force_group.get(name, (None, None))
         grp = None if gi is None else self.force_groups[gi]
         if not isinstance(grp, ScalarSpringGroup):
-            springs = [n for g in self.force_groups if isinstance(g, ScalarSpringGroup)
-                       for n in g.names]
-            raise ValueError(f'{self.mechanism.name}: {name!r} is not a spring element '
-                             f'(springs: {springs})')
+            springs = [
+                n for g in self.force_groups if isinstance(g, ScalarSpringGroup) for n in g.names
+            ]
+            raise ValueError(
+                f'{self.mechanism.name}: {name!r} is not a spring element (springs: {springs})'
+            )
         qe = self._ext(q)
         qde = None if qd is None else self._ext(qd)
         values = self._force_values(q.shape[0], None, params, only=gi)[gi]
         if values is None:  # all zero
             values = {p: np.zeros((q.shape[0], len(grp.names))) for p in grp.parameters}
         geo = grp.geometry(qe)
-        return self._spring_state(gi, k, qe, qde, grp.tension(qe, qde, values, geo),
-                                  grp.directions(qe, geo)[:, k], qdd, geo)
+        return self._spring_state(
+            gi,
+            k,
+            qe,
+            qde,
+            grp.tension(qe, qde, values, geo),
+            grp.directions(qe, geo)[:, k],
+            qdd,
+            geo,
+        )
 
-    def _spring_state(self, gi: int, k: int, qe: np.ndarray, qde: np.ndarray | None,
-                      tension: tuple[np.ndarray, ...], direction: np.ndarray,
-                      qdd: np.ndarray | None = None, geometry=None) -> SpringState:
+    def _spring_state(
+        self,
+        gi: int,
+        k: int,
+        qe: np.ndarray,
+        qde: np.ndarray | None,
+        tension: tuple[np.ndarray, ...],
+        direction: np.ndarray,
+        qdd: np.ndarray | None = None,
+        geometry=None,
+    ) -> SpringState:
         """:meth:`spring` from its group's :meth:`~ScalarSpringGroup.tension` and the
         element's line of action (N, 2, 2)."""
         grp = self.force_groups[gi]
@@ -525,19 +617,31 @@ class PlanarMultibodySolver:
         acc = np.full(qe.shape[0], np.nan)
         if qdd is not None and qde is not None:
             acc = (grp.rate(grad, self._ext(qdd)) + grp.quadratic(qe, qde, geometry))[:, k]
-        return SpringState(length=ell[:, k], deflection=ell[:, k] - grp.free_length[k],
-                           rate=ell_d[:, k], acceleration=acc, force=f[:, k],
-                           direction=direction, end_forces=f[:, k, None, None] * direction,
-                           bodies=tuple(self._name(b) for b in grp.bodies[k]))
+        return SpringState(
+            length=ell[:, k],
+            deflection=ell[:, k] - grp.free_length[k],
+            rate=ell_d[:, k],
+            acceleration=acc,
+            force=f[:, k],
+            direction=direction,
+            end_forces=f[:, k, None, None] * direction,
+            bodies=tuple(self._name(b) for b in grp.bodies[k]),
+        )
 
     def _name(self, index: int) -> str:
         return GROUND if index == self.nb else self.body_names[index]
 
     # ---------------------------------------------------------------- dynamics
-    def solve_augmented(self, q: np.ndarray, qd: np.ndarray, Q: np.ndarray,
-                        baumgarte: tuple[float, float] | None = None,
-                        Cq: np.ndarray | None = None, method: str = 'partitioned',
-                        motion: Motion | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def solve_augmented(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        Q: np.ndarray,
+        baumgarte: tuple[float, float] | None = None,
+        Cq: np.ndarray | None = None,
+        method: str = 'partitioned',
+        motion: Motion | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Solve eq. 11 for ``q̈`` (N, n) and ``λ`` (N, m), batched over N states
         (``Cq``: the constraint Jacobian at ``q`` if the caller already has it). The
         methods give the same solution of the same system, by different eliminations:
@@ -558,15 +662,19 @@ class PlanarMultibodySolver:
         rhs_c = self.gamma(q, qd, motion)
         return self._augmented(q, qd, Q, Cq, rhs_c, baumgarte, method, motion)
 
-    def _augmented(self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='partitioned',
-                   motion=None, partition=None):
+    def _augmented(
+        self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='partitioned', motion=None, partition=None
+    ):
         """:meth:`solve_augmented` given ``C_q`` and ``γ`` (and :meth:`_partition` of
         ``C_q``, if the caller has it)."""
         N, n, m = q.shape[0], self.n, self.m
         if baumgarte is not None:
             alpha, beta = baumgarte
-            rhs_c = (rhs_c - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
-                     - beta**2 * self.constraints(q, motion))
+            rhs_c = (
+                rhs_c
+                - 2.0 * alpha * self.constraint_rate(q, qd, motion, Cq)
+                - beta**2 * self.constraints(q, motion)
+            )
         what = 'augmented system (eq. 11)'
         if method == 'partitioned':
             Cinv, T = self._partition(Cq) if partition is None else partition
@@ -576,14 +684,17 @@ class PlanarMultibodySolver:
             if self.dof == 1:
                 t = T[:, :, 0]
                 i = self._ind0
-                qdd_ind = ((Q[:, i] + np.einsum('ni,ni->n', t, f_dep))
-                           / (self.mass_diag[i] + (t * t) @ m_dep))[:, None]
+                qdd_ind = (
+                    (Q[:, i] + np.einsum('ni,ni->n', t, f_dep))
+                    / (self.mass_diag[i] + (t * t) @ m_dep)
+                )[:, None]
                 qdd_dep = t * qdd_ind + g
             else:
                 Mr = np.einsum('nji,j,njk->nik', T, m_dep, T)
                 Mr[:, np.arange(self.dof), np.arange(self.dof)] += self.mass_diag[self.ind]
-                qdd_ind = _batched_solve(Mr, Q[:, self.ind] + np.einsum('nji,nj->ni', T, f_dep),
-                                         what)
+                qdd_ind = _batched_solve(
+                    Mr, Q[:, self.ind] + np.einsum('nji,nj->ni', T, f_dep), what
+                )
                 qdd_dep = np.einsum('nij,nj->ni', T, qdd_ind) + g
             qdd = np.empty((N, n))
             qdd[:, self.ind] = qdd_ind
@@ -594,12 +705,12 @@ class PlanarMultibodySolver:
             return qdd, lam
         if method == 'schur':
             CMi = Cq * self._inv_mass
-            lam = _batched_solve(CMi @ Cq.transpose(0, 2, 1),
-                                 np.einsum('nij,nj->ni', CMi, Q) - rhs_c, what)
+            lam = _batched_solve(
+                CMi @ Cq.transpose(0, 2, 1), np.einsum('nij,nj->ni', CMi, Q) - rhs_c, what
+            )
             return (Q - np.einsum('nji,nj->ni', Cq, lam)) / self.mass_diag, lam
         if method != 'dense':
-            raise ValueError(f"method must be 'partitioned', 'schur' or 'dense', "
-                             f"got {method!r}")
+            raise ValueError(f"method must be 'partitioned', 'schur' or 'dense', got {method!r}")
         A = np.zeros((N, n + m, n + m))
         A[:, :n, :n] = self.M
         A[:, :n, n:] = Cq.transpose(0, 2, 1)
@@ -621,16 +732,18 @@ class PlanarMultibodySolver:
             Cinv = _lapack_inv(Cq.take(self.dep, 2))
         except np.linalg.LinAlgError:
             _finite(Cq, Cq[:, :, 0], 'constraint Jacobian')
-            raise MultibodyError('singular constraint Jacobian C_q,dep: the mechanism is in '
-                                 'a singular configuration') from None
+            raise MultibodyError(
+                'singular constraint Jacobian C_q,dep: the mechanism is in a singular configuration'
+            ) from None
         i = self._ind0
-        C_ind = Cq[:, :, i:i + 1] if self.dof == 1 else Cq.take(self.ind, 2)
+        C_ind = Cq[:, :, i : i + 1] if self.dof == 1 else Cq.take(self.ind, 2)
         T = -(Cinv @ C_ind)  # (a non-finite C_q: found by the users of T)
         self.calls['factorizations'] += 1
         return _keep(self._kept_partition, Cq, (Cinv, T))
 
-    def reactions(self, q: np.ndarray, lam: np.ndarray,
-                  jacobians: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
+    def reactions(
+        self, q: np.ndarray, lam: np.ndarray, jacobians: tuple[np.ndarray, ...] | None = None
+    ) -> np.ndarray:
         """What every joint (the mechanism's, then the fixed bodies' welds, order
         :attr:`joint_names`) applies on each of its bodies (:attr:`joint_bodies`; a
         prescribed joint has one): (N, n_joints, 2, 3) = force (x, z) and torque about
@@ -640,7 +753,7 @@ class PlanarMultibodySolver:
         if jacobians is None:
             jacobians = self._joint_jacobians(q)
         for g, jac in zip(self.joint_groups, jacobians):
-            out[:, g.members, :g.n_bodies] = g.reactions(None, lam[:, g.rows], jac)
+            out[:, g.members, : g.n_bodies] = g.reactions(None, lam[:, g.rows], jac)
         return out
 
     def _joint_jacobians(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -651,8 +764,9 @@ class PlanarMultibodySolver:
         if known is not None:
             return known
         qe = self._ext(q)
-        return _keep(self._kept_joint_jacobians, q,
-                     tuple(g.jacobian(qe) for g in self.joint_groups))
+        return _keep(
+            self._kept_joint_jacobians, q, tuple(g.jacobian(qe) for g in self.joint_groups)
+        )
 
     def joint_reactions(self, lam: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Force each of the mechanism's joints applies on its first body, global axes,
@@ -661,11 +775,13 @@ class PlanarMultibodySolver:
         Joints whose force direction turns with the bodies (prismatic) need the positions
         ``q``; for the others the force follows from ``λ`` alone."""
         if q is None:
-            moving = [n for g in self.joint_groups if not g.constant_force_jacobian
-                      for n in g.names]
+            moving = [
+                n for g in self.joint_groups if not g.constant_force_jacobian for n in g.names
+            ]
             if moving:
-                raise ValueError(f'{self.mechanism.name}: the reactions of {moving} depend on '
-                                 'the pose: pass q')
+                raise ValueError(
+                    f'{self.mechanism.name}: the reactions of {moving} depend on the pose: pass q'
+                )
         out = -(lam @ self._first_force_T).reshape(lam.shape[0], self.nj, 2)
         if q is not None and self._moving_force:
             qe = self._ext(q)
@@ -673,9 +789,14 @@ class PlanarMultibodySolver:
                 out[:, g.members[mine]] = g.reactions(qe, lam[:, g.rows])[:, mine, 0, :2]
         return out
 
-    def body_reaction(self, body: str, q: np.ndarray, lam: np.ndarray,
-                      point: ArrayLike | None = None,
-                      joints: list[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def body_reaction(
+        self,
+        body: str,
+        q: np.ndarray,
+        lam: np.ndarray,
+        point: ArrayLike | None = None,
+        joints: list[str] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Total force (N, 2) and torque (N,) that the joints attached to ``body`` (or the
         ground; only those in ``joints`` if given) apply on it, the torque about the
         global ``point`` ((2,) or (N, 2); default: the body's CG, the origin for the
@@ -715,8 +836,9 @@ class PlanarMultibodySolver:
         return V
 
     # ---------------------------------------------------------------- partitioning
-    def positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None,
-                  motion: Motion | None = None) -> np.ndarray:
+    def positions(
+        self, q_ind: np.ndarray, guess: np.ndarray | None = None, motion: Motion | None = None
+    ) -> np.ndarray:
         """All coordinates (N, n) consistent with the independent ones (N, dof): Newton on
         ``C(q) = 0`` for the dependent coordinates, from ``guess``, else from the pose table
         inside a suspension's travel range (:meth:`_pose_table`: converged already), else
@@ -729,8 +851,9 @@ class PlanarMultibodySolver:
         q_ind = np.asarray(q_ind, dtype=float)
         return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]))
 
-    def _analysed_positions(self, q_ind: np.ndarray, guess: np.ndarray | None = None,
-                            motion: Motion | None = None):
+    def _analysed_positions(
+        self, q_ind: np.ndarray, guess: np.ndarray | None = None, motion: Motion | None = None
+    ):
         """:meth:`positions` and, at the result, ``C_q`` (N, m, n), each state's
         ``max |C|`` (N,), as :meth:`constraint_jacobian` and :meth:`constraints` give them,
         and the coincidence joints' pool (see :meth:`_gamma_all`)."""
@@ -738,8 +861,13 @@ class PlanarMultibodySolver:
         q_ind = np.asarray(q_ind, dtype=float)
         return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]), full=True)
 
-    def _positions(self, q_ind: np.ndarray, guess: np.ndarray | None,
-                   drives: list[np.ndarray | None], full: bool = False):
+    def _positions(
+        self,
+        q_ind: np.ndarray,
+        guess: np.ndarray | None,
+        drives: list[np.ndarray | None],
+        full: bool = False,
+    ):
         """:meth:`positions`; with ``full``, also ``C_q`` (N, m, n), ``max |C|`` (N,) and
         the coincidence joints' pool (or None) of each state at its result, from its last
         Newton iteration (what :meth:`constraint_jacobian` and :meth:`constraints` give
@@ -749,25 +877,31 @@ class PlanarMultibodySolver:
         N = q_ind.shape[0]
         driven = any(d is not None for d in drives)
         if guess is None and not driven and self._pose_spline is None:
-            self._pose_spline = (False if self._travel_poses is None or self.dof != 1 else
-                                 self._pose_table(self.mechanism.travel, self._travel_poses)
-                                 or False)
+            self._pose_spline = (
+                False
+                if self._travel_poses is None or self.dof != 1
+                else self._pose_table(self.mechanism.travel, self._travel_poses) or False
+            )
         if guess is None and not driven and self._pose_spline is not False:
             # the pose table where it has the pose, the reference's tangent elsewhere
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             table = self._pose_spline(q_ind[:, 0])
             outside = np.isnan(table[:, 0])
             if outside.any():
-                table[outside] = (self.q0[self.dep] + (q_ind[outside] - self.q0[self.ind])
-                                  @ self._tangent0.T)
+                table[outside] = (
+                    self.q0[self.dep] + (q_ind[outside] - self.q0[self.ind]) @ self._tangent0.T
+                )
             q[:, self.dep] = table
         elif guess is None:  # the reference pose moved along its tangent
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             q[:, self.dep] += (q_ind - self.q0[self.ind]) @ self._tangent0.T
             if driven:  # and along the drives' (-C_q,dep⁻¹ C)
                 q0e = self._ext(self.q0[None].repeat(N, 0))
-                C0 = [g.residual(q0e, d).reshape(N, -1) for g, d in zip(self.joint_groups, drives)
-                      if g.rheonomic]
+                C0 = [
+                    g.residual(q0e, d).reshape(N, -1)
+                    for g, d in zip(self.joint_groups, drives)
+                    if g.rheonomic
+                ]
                 q[:, self.dep] -= np.concatenate(C0, axis=1) @ self._drive_tangent0.T
         else:
             q = guess.copy()
@@ -782,8 +916,11 @@ class PlanarMultibodySolver:
         def keep(done):  # (full) the states ``done`` of this iteration end here
             nonlocal out
             if out is None:
-                out = (np.empty((N, self.m, self.n)), np.empty(N),
-                       None if pool is None else np.empty((N, pool.shape[1])))
+                out = (
+                    np.empty((N, self.m, self.n)),
+                    np.empty(N),
+                    None if pool is None else np.empty((N, pool.shape[1])),
+                )
             idx = np.flatnonzero(done) if todo is None else todo[done]
             out[0][idx] = Cq[done]
             out[1][idx] = err[done]
@@ -792,8 +929,7 @@ class PlanarMultibodySolver:
 
         for it in range(self.newton_max_iter + 1):
             qa = q if todo is None else q[todo]
-            C, Cq, pool = self._analysis(qa, drives if todo is None
-                                         else self._subset(drives, todo))
+            C, Cq, pool = self._analysis(qa, drives if todo is None else self._subset(drives, todo))
             err = np.maximum.reduce(np.abs(C), axis=1, initial=0.0)
             open_ = err >= self.newton_tol
             n_open = np.count_nonzero(open_)
@@ -809,8 +945,7 @@ class PlanarMultibodySolver:
             if n_open < qa.shape[0]:
                 if small:
                     try:
-                        step = _batched_solve(Cq.take(self.dep, 2), C,
-                                              'position analysis C(q) = 0')
+                        step = _batched_solve(Cq.take(self.dep, 2), C, 'position analysis C(q) = 0')
                     except MultibodyError:  # singular at a converged state
                         small = False
                     else:
@@ -830,11 +965,17 @@ class PlanarMultibodySolver:
         raise MultibodyError(
             f'{self.mechanism.name}: position analysis did not converge in '
             f'{self.newton_max_iter} Newton iterations (max |C| = {worst:.2e}); the '
-            'independent coordinate is out of the mechanism\'s range')
+            "independent coordinate is out of the mechanism's range"
+        )
 
-    def velocities(self, q: np.ndarray, qd_ind: np.ndarray, Cq: np.ndarray | None = None,
-                   max_sensitivity: float | None = None,
-                   motion: Motion | None = None) -> np.ndarray:
+    def velocities(
+        self,
+        q: np.ndarray,
+        qd_ind: np.ndarray,
+        Cq: np.ndarray | None = None,
+        max_sensitivity: float | None = None,
+        motion: Motion | None = None,
+    ) -> np.ndarray:
         """All velocities (N, n) from the independent ones: ``C_q q̇ = ν``, as
         ``q̇_dep = T q̇_ind + C_q,dep⁻¹ ν`` with the tangent ``T = ∂q_dep/∂q_ind =
         -C_q,dep⁻¹ C_q,ind`` (:meth:`_partition`: a new rate at a remembered pose is
@@ -859,7 +1000,8 @@ class PlanarMultibodySolver:
                     f'{self.mechanism.name}: near a singular (toggle) position at independent '
                     f'coordinate(s) {np.round(q[worst, self.ind], 6).tolist()}: the linkage '
                     f'moves {ratio[worst]:.3g} times faster than at its reference pose; this '
-                    'is the edge of its range of motion')
+                    'is the edge of its range of motion'
+                )
         if self.dof == 1:
             qd_dep = T[:, :, 0] * qd[:, self._ind0, None]
         else:
@@ -872,31 +1014,49 @@ class PlanarMultibodySolver:
         qd[:, self.dep] = qd_dep
         return qd
 
-    def accelerations(self, q: np.ndarray, qd: np.ndarray, qdd_ind: np.ndarray,
-                      Cq: np.ndarray | None = None, motion: Motion | None = None) -> np.ndarray:
+    def accelerations(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        qdd_ind: np.ndarray,
+        Cq: np.ndarray | None = None,
+        motion: Motion | None = None,
+    ) -> np.ndarray:
         """Acceleration analysis: all accelerations (N, n) from the independent ones,
         ``C_q q̈ = γ`` at consistent positions and velocities (no forces involved)."""
         qdd = np.zeros_like(q)
         qdd[:, self.ind] = qdd_ind
         if Cq is None:
             Cq = self.constraint_jacobian(q)
-        rhs = self.gamma(q, qd, motion) - np.einsum('nij,nj->ni', Cq[:, :, self.ind],
-                                                    qdd[:, self.ind])
+        rhs = self.gamma(q, qd, motion) - np.einsum(
+            'nij,nj->ni', Cq[:, :, self.ind], qdd[:, self.ind]
+        )
         qdd[:, self.dep] = _batched_solve(Cq[:, :, self.dep], rhs, 'acceleration analysis')
         return qdd
 
-    def consistent_state(self, q_ind: np.ndarray, qd_ind: np.ndarray,
-                         guess: np.ndarray | None = None,
-                         motion: Motion | None = None) -> MultibodyState:
+    def consistent_state(
+        self,
+        q_ind: np.ndarray,
+        qd_ind: np.ndarray,
+        guess: np.ndarray | None = None,
+        motion: Motion | None = None,
+    ) -> MultibodyState:
         """Consistent positions and velocities from the independent coordinates and rates."""
         q = self.positions(np.atleast_2d(q_ind), guess, motion)
         Cq = self.constraint_jacobian(q)
-        return MultibodyState(q=q, qd=self.velocities(q, np.atleast_2d(qd_ind), Cq,
-                                                      motion=motion), Cq=Cq)
+        return MultibodyState(
+            q=q, qd=self.velocities(q, np.atleast_2d(qd_ind), Cq, motion=motion), Cq=Cq
+        )
 
-    def dynamics(self, q_ind: np.ndarray, qd_ind: np.ndarray, loads: np.ndarray | None,
-                 guess: np.ndarray | None = None, motion: Motion | None = None,
-                 params: Params | None = None) -> MultibodyState:
+    def dynamics(
+        self,
+        q_ind: np.ndarray,
+        qd_ind: np.ndarray,
+        loads: np.ndarray | None,
+        guess: np.ndarray | None = None,
+        motion: Motion | None = None,
+        params: Params | None = None,
+    ) -> MultibodyState:
         """Everything at N states given by independent coordinates, rates, load magnitudes,
         prescribed motion and force parameters."""
         st = self.consistent_state(q_ind, qd_ind, guess, motion)
@@ -926,16 +1086,17 @@ class PlanarMultibodySolver:
                 try:
                     q_new = self._positions(np.array([ind0 + z]), q + step, none)
                     if np.max(np.abs(q_new - q - step)) > np.max(np.abs(step)):
-                        raise MultibodyError('no pose near the last one: the end of its '
-                                             'range of motion')
-                    qd = self.velocities(q_new, np.ones((1, 1)),
-                                         max_sensitivity=TOGGLE_SENSITIVITY)
+                        raise MultibodyError(
+                            'no pose near the last one: the end of its range of motion'
+                        )
+                    qd = self.velocities(q_new, np.ones((1, 1)), max_sensitivity=TOGGLE_SENSITIVITY)
                 except MultibodyError as err:
                     raise ConfigError(
                         f'{self.mechanism.name}: suspension.travel: the linkage locks between '
                         f'wheel travel {z - dz:+.4g} and {z:+.4g} m, inside its travel range '
                         f'[{travel[0]:g}, {travel[1]:g}] m (joints {self._locking_joints(q)}): '
-                        + str(err).removeprefix(f'{self.mechanism.name}: ')) from None
+                        + str(err).removeprefix(f'{self.mechanism.name}: ')
+                    ) from None
                 q = q_new
                 visited[float(z)] = q[0]
         return visited
@@ -947,6 +1108,7 @@ class PlanarMultibodySolver:
         so a position analysis needs one Newton step fewer, or none. A function of the
         mechanism alone, so every analysis still depends on its own query only."""
         from scipy.interpolate import CubicSpline
+
         lo, hi = travel
         k = max(4, int(np.ceil((hi - lo) / POSE_TABLE_SPACING)) + 1)
         z = np.linspace(lo, hi, k)
@@ -968,19 +1130,29 @@ class PlanarMultibodySolver:
         constraints that become dependent: the loop that locks)."""
         Cd = self.constraint_jacobian(q)[0][:, self.dep]
         y = np.abs(np.linalg.svd(Cd)[0][:, -1])
-        return [name for name, rows in zip(self.joint_names, self.joint_rows)
-                if np.max(y[rows], initial=0.0) > 0.1 * np.max(y)]
+        return [
+            name
+            for name, rows in zip(self.joint_names, self.joint_rows)
+            if np.max(y[rows], initial=0.0) > 0.1 * np.max(y)
+        ]
 
 
 try:  # the gufuncs behind np.linalg.solve and .inv, without their argument handling (small
     # systems, where that handling costs as much as the factorization)
     from numpy.linalg import _umath_linalg
     from numpy.linalg._linalg import _raise_linalgerror_singular
+
     _solve, _inv = _umath_linalg.solve, _umath_linalg.inv
     try:  # np.linalg.solve's error state, made once
         from numpy._core._ufunc_config import _extobj_contextvar, _make_extobj
-        _SOLVE_ERRORS = _make_extobj(call=_raise_linalgerror_singular, invalid='call',
-                                     over='ignore', divide='ignore', under='ignore')
+
+        _SOLVE_ERRORS = _make_extobj(
+            call=_raise_linalgerror_singular,
+            invalid='call',
+            over='ignore',
+            divide='ignore',
+            under='ignore',
+        )
 
         def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
             token = _extobj_contextvar.set(_SOLVE_ERRORS)
@@ -996,14 +1168,25 @@ try:  # the gufuncs behind np.linalg.solve and .inv, without their argument hand
             finally:
                 _extobj_contextvar.reset(token)
     except (ImportError, AttributeError, TypeError):  # pragma: no cover - NumPy < 2
+
         def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-            with np.errstate(call=_raise_linalgerror_singular, invalid='call',
-                             over='ignore', divide='ignore', under='ignore'):
+            with np.errstate(
+                call=_raise_linalgerror_singular,
+                invalid='call',
+                over='ignore',
+                divide='ignore',
+                under='ignore',
+            ):
                 return _solve(A, b, signature='dd->d')
 
         def _lapack_inv(A: np.ndarray) -> np.ndarray:
-            with np.errstate(call=_raise_linalgerror_singular, invalid='call',
-                             over='ignore', divide='ignore', under='ignore'):
+            with np.errstate(
+                call=_raise_linalgerror_singular,
+                invalid='call',
+                over='ignore',
+                divide='ignore',
+                under='ignore',
+            ):
                 return _inv(A, signature='d->d')
 except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
     _lapack_solve, _lapack_inv = np.linalg.solve, np.linalg.inv
@@ -1023,7 +1206,7 @@ def _keep(memory: list[tuple], key: np.ndarray, value: tuple) -> tuple:
     arrays then read-only too."""
     if frozen(key):
         value = tuple(freeze(a) for a in value)
-        memory[:] = [(key, value), *memory[:KEPT_POSES - 1]]
+        memory[:] = [(key, value), *memory[: KEPT_POSES - 1]]
     return value
 
 
@@ -1052,14 +1235,18 @@ def _batched_solve(A: np.ndarray, b: np.ndarray, what: str) -> np.ndarray:
     (N, m) or (N, m, k); a singular or non-finite one is a MultibodyError."""
     vector = b.ndim != A.ndim
     rhs = b[..., None] if vector else b
-    solve = (_lapack_solve if A.dtype == np.float64 and rhs.dtype == np.float64
-             and A.ndim == 3 else np.linalg.solve)
+    solve = (
+        _lapack_solve
+        if A.dtype == np.float64 and rhs.dtype == np.float64 and A.ndim == 3
+        else np.linalg.solve
+    )
     try:
         x = solve(A, rhs)
     except np.linalg.LinAlgError:
         _finite(A, b, what)
-        raise MultibodyError(f'singular {what}: the mechanism is in a singular '
-                             'configuration') from None
+        raise MultibodyError(
+            f'singular {what}: the mechanism is in a singular configuration'
+        ) from None
     # a non-finite input gives a non-finite solution: check the inputs only then
     if not np.isfinite(np.add.reduce(x, axis=None)):
         _finite(A, b, what)

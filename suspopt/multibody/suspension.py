@@ -44,11 +44,12 @@ The chassis equations then solve the loop per node in closed form
 Both the black-box OpenMDAO components and the time-marching integrator call these two
 methods, so both integrate one model.
 """
+
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections import OrderedDict
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,8 +58,7 @@ from suspopt.errors import ConfigError
 from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
 from suspopt.multibody.elements.base import cross, perp, rot_apply
 from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
-from suspopt.multibody.solver import (MultibodyState, PlanarMultibodySolver, freeze,
-                                      frozen)
+from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver, freeze, frozen
 
 MOUNTS = ('ground', 'chassis')
 #: the entries of a chassis-mounted module's response (:meth:`SuspensionModule.
@@ -87,18 +87,25 @@ def chassis_mounted(mechanism: Mechanism) -> tuple[Mechanism, str, str]:
     on_ground = [j.name for j in mechanism.joints if GROUND in j.bodies]
     on_ground += [m.name for m in mechanism.markers if m.body == GROUND]
     if len(frames) != 1 or on_ground:
-        raise ConfigError(f'{mechanism.name}: multibody.mount = "chassis" needs every '
-                          'chassis-side part on one frame body (fixed = true) and nothing on '
-                          f'the ground; it has fixed bodies {[b.name for b in frames]} and '
-                          f'ground joints or markers {on_ground}')
+        raise ConfigError(
+            f'{mechanism.name}: multibody.mount = "chassis" needs every '
+            'chassis-side part on one frame body (fixed = true) and nothing on '
+            f'the ground; it has fixed bodies {[b.name for b in frames]} and '
+            f'ground joints or markers {on_ground}'
+        )
     frame = frames[0].name
     names = {j.name for j in mechanism.joints}
     joint = next(n for n in (f'{frame} mount', f'{frame} mount (chassis)') if n not in names)
-    bodies = tuple(dataclasses.replace(b, fixed=False) if b.name == frame else b
-                   for b in mechanism.bodies)
-    return (dataclasses.replace(mechanism, bodies=bodies,
-                                joints=mechanism.joints + (PrescribedJoint(joint, frame),)),
-            frame, joint)
+    bodies = tuple(
+        dataclasses.replace(b, fixed=False) if b.name == frame else b for b in mechanism.bodies
+    )
+    return (
+        dataclasses.replace(
+            mechanism, bodies=bodies, joints=mechanism.joints + (PrescribedJoint(joint, frame),)
+        ),
+        frame,
+        joint,
+    )
 
 
 class SuspensionModule:
@@ -121,8 +128,9 @@ class SuspensionModule:
     #: vertical, 99.995 % of the 0.33 m arm length)
     max_sensitivity = 100.0
 
-    def __init__(self, mechanism: Mechanism | str, newton_tol: float = 1e-13,
-                 mount: str = 'ground'):
+    def __init__(
+        self, mechanism: Mechanism | str, newton_tol: float = 1e-13, mount: str = 'ground'
+    ):
         if isinstance(mechanism, str):
             mechanism = load_mechanism(mechanism, suspension=True)
         if mount not in MOUNTS:
@@ -141,8 +149,10 @@ class SuspensionModule:
         ends = s.spring(self.spring_name, s.q0[None]).bodies
         chassis = [i for i, b in enumerate(ends) if b == GROUND or b in fixed_names]
         if len(chassis) != 1:  # the reader refuses such files; a Mechanism built in Python
-            raise ConfigError(f'{mechanism.name}: the suspension spring {self.spring_name!r} '
-                              f'must connect the chassis side to the linkage (ends {ends})')
+            raise ConfigError(
+                f'{mechanism.name}: the suspension spring {self.spring_name!r} '
+                f'must connect the chassis side to the linkage (ends {ends})'
+            )
         self.chassis_end = chassis[0]
         self._spring_group = s._force_group[self.spring_name]
         self.marker_ref = s.marker_reference()
@@ -162,8 +172,7 @@ class SuspensionModule:
             self._arm = s.q0[self._frame][:2] - self.mount_point  # frame CG from P
         self.time_s = 0.0  # wall time spent inside this module (benchmarks)
         self.reused = 0  # queries answered from a remembered analysis
-        self._poses: OrderedDict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = \
-            OrderedDict()
+        self._poses: OrderedDict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = OrderedDict()
         self._states: OrderedDict[bytes, tuple] = OrderedDict()  # (kinematics, max |C|, pool)
         #: the last kinematics' (q, mount pose, max |C|): what constraint_residual returns
         self._last_residual: tuple | None = None
@@ -206,9 +215,13 @@ class SuspensionModule:
         self._remember(self._poses, key, pose, self.memory)
         return pose
 
-    def kinematics(self, z_W: np.ndarray, v_W: np.ndarray,
-                   guess: np.ndarray | None = None,
-                   pose: tuple[np.ndarray, ...] | None = None) -> ModuleKinematics:
+    def kinematics(
+        self,
+        z_W: np.ndarray,
+        v_W: np.ndarray,
+        guess: np.ndarray | None = None,
+        pose: tuple[np.ndarray, ...] | None = None,
+    ) -> ModuleKinematics:
         """Position and velocity analysis at N wheel-travel states (arrays of shape (N,));
         ``guess``: body coordinates (N, n) to start the position analysis from.
 
@@ -219,12 +232,14 @@ class SuspensionModule:
         z_W = np.ascontiguousarray(z_W, dtype=float)
         v_W = np.ascontiguousarray(v_W, dtype=float)
         if (pose is not None) != (self.mount == 'chassis'):
-            raise ValueError(f'{self.mechanism.name}: a {self.mount}-mounted module '
-                             + ('needs the mount pose' if pose is None else
-                                'takes no mount pose'))
+            raise ValueError(
+                f'{self.mechanism.name}: a {self.mount}-mounted module '
+                + ('needs the mount pose' if pose is None else 'takes no mount pose')
+            )
         if pose is not None:
-            pose = tuple(np.ascontiguousarray(np.broadcast_to(p, z_W.shape), dtype=float)
-                         for p in pose)
+            pose = tuple(
+                np.ascontiguousarray(np.broadcast_to(p, z_W.shape), dtype=float) for p in pose
+            )
         key = z_W.tobytes() + v_W.tobytes()
         if pose is not None:
             key += b''.join(p.tobytes() for p in pose)
@@ -237,16 +252,18 @@ class SuspensionModule:
                 s = self.solver
                 motion = None if pose is None else self.mount_motion(pose)
                 q, Cq, q_W, arm_x, res, pool = self._pose(z_W, guess, pose, motion)
-                qd = s.velocities(q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity,
-                                  motion=motion)
+                qd = s.velocities(
+                    q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity, motion=motion
+                )
                 freeze(qd)
                 if self._wheel_coords is None:
                     qd_W = np.zeros(q.shape[0])
                 else:  # (r + B u φ)_z of the wheel marker
                     iz, iphi = self._wheel_coords
                     qd_W = qd[:, iz] + arm_x * qd[:, iphi]
-                kin = ModuleKinematics(q_W=q_W, qd_W=qd_W,
-                                       state=MultibodyState(q=q, qd=qd, Cq=Cq), pose=pose)
+                kin = ModuleKinematics(
+                    q_W=q_W, qd_W=qd_W, state=MultibodyState(q=q, qd=qd, Cq=Cq), pose=pose
+                )
                 residual = float(np.maximum.reduce(res, initial=0.0))
                 self._remember(self._states, key, (kin, residual, pool), self.memory)
             self._last_residual = (kin.state.q, kin.pose, residual)
@@ -255,12 +272,16 @@ class SuspensionModule:
             self.time_s += time.perf_counter() - t0
         # a fresh state object: dynamics() attaches accelerations and multipliers to it
         st = kin.state
-        return ModuleKinematics(q_W=kin.q_W, qd_W=kin.qd_W,
-                                state=MultibodyState(q=st.q, qd=st.qd, Cq=st.Cq),
-                                pose=kin.pose)
+        return ModuleKinematics(
+            q_W=kin.q_W,
+            qd_W=kin.qd_W,
+            state=MultibodyState(q=st.q, qd=st.qd, Cq=st.Cq),
+            pose=kin.pose,
+        )
 
-    def mount_motion(self, pose: tuple[np.ndarray, ...],
-                     acceleration: np.ndarray | None = None) -> dict[str, PrescribedMotion]:
+    def mount_motion(
+        self, pose: tuple[np.ndarray, ...], acceleration: np.ndarray | None = None
+    ) -> dict[str, PrescribedMotion]:
         """The frame's prescribed motion for mount poses ``(z_M, v_M, ψ, ψ̇)`` (each (N,)):
         ``P`` up by ``z_M``, the frame turned by ``ψ`` about it. ``acceleration``: the
         frame CG's (N, 3), default the velocity term only (zero mount acceleration,
@@ -289,8 +310,13 @@ class SuspensionModule:
         """The spring's run-time values: rate, damping, and the preload
         ``e_z (k_S z_M + c_S v_M)`` of the chassis mount's motion along its axis."""
         e_z = self.axis_vertical(state)
-        return {self.spring_name: {'stiffness': k_S, 'damping': c_S,
-                                   'preload': e_z * (k_S * z_M + c_S * v_M)}}
+        return {
+            self.spring_name: {
+                'stiffness': k_S,
+                'damping': c_S,
+                'preload': e_z * (k_S * z_M + c_S * v_M),
+            }
+        }
 
     def axis_vertical(self, state: MultibodyState) -> np.ndarray:
         """``e_z``: vertical component of the unit vector from the spring's linkage end to
@@ -312,16 +338,24 @@ class SuspensionModule:
             tension = grp.tension(qe, qde, values[gi], grp.geometry(qe))
         return tension[2][:, k]
 
-    def dynamics(self, state: MultibodyState, z_M: np.ndarray, v_M: np.ndarray,
-                 k_S: np.ndarray, c_S: np.ndarray, F_T: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def dynamics(
+        self,
+        state: MultibodyState,
+        z_M: np.ndarray,
+        v_M: np.ndarray,
+        k_S: np.ndarray,
+        c_S: np.ndarray,
+        F_T: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Augmented-form dynamics (eq. 11) under the suspension spring (rate ``k_S``,
         damping ``c_S``, chassis mount at ``z_M``, ``v_M``) and ``+F_T`` on the contact
         patch: wheel-travel acceleration (N,), the spring's vertical force on the chassis
         ``F_S`` (N,) and the joint reactions (N, nj, 2)."""
         if self.mount != 'ground':
-            raise ValueError(f'{self.mechanism.name}: dynamics() is the ground mount\'s '
-                             'query; a chassis-mounted module answers mount_response()')
+            raise ValueError(
+                f"{self.mechanism.name}: dynamics() is the ground mount's "
+                'query; a chassis-mounted module answers mount_response()'
+            )
         t0 = time.perf_counter()
         s = self.solver
         try:
@@ -333,8 +367,13 @@ class SuspensionModule:
             gi = self._spring_group[0]
             geo = {gi: s.force_groups[gi].geometry(qe)}  # the spring's, once
             e_z = self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1]
-            params = {self.spring_name: {'stiffness': k_S, 'damping': c_S,  # spring_params
-                                         'preload': e_z * (k_S * z_M + c_S * v_M)}}
+            params = {
+                self.spring_name: {
+                    'stiffness': k_S,
+                    'damping': c_S,  # spring_params
+                    'preload': e_z * (k_S * z_M + c_S * v_M),
+                }
+            }
             values = s._force_values(N, loads, params)
             Q, parts = s._forces(q, qe, qde, values, geo)
             # solve_augmented(q, qd, Q, Cq=state.Cq)
@@ -354,17 +393,23 @@ class SuspensionModule:
         if last is not None and last[0] is q and last[1] is qd:
             return last[2]
         s = self.solver
-        pool = self._last_pool[1] if self._last_pool is not None and \
-            self._last_pool[0] is q else None
+        pool = (
+            self._last_pool[1] if self._last_pool is not None and self._last_pool[0] is q else None
+        )
         gamma = s._gamma_all(q, qd, s._drives(None, q.shape[0]), qe, qde, pool)
         if frozen(q) and frozen(qd):
             self._last_gamma = (q, qd, freeze(gamma))
         return gamma
 
-    def mount_response(self, kin: ModuleKinematics, k_S: np.ndarray, c_S: np.ndarray,
-                       F_T: np.ndarray, rotation: bool = False,
-                       acceleration: np.ndarray | None = None
-                       ) -> tuple[np.ndarray, np.ndarray]:
+    def mount_response(
+        self,
+        kin: ModuleKinematics,
+        k_S: np.ndarray,
+        c_S: np.ndarray,
+        F_T: np.ndarray,
+        rotation: bool = False,
+        acceleration: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Chassis mount: what the linkage applies on the chassis at N states analysed by
         :meth:`kinematics`, under the spring (``k_S``, ``c_S``) and ``+F_T`` on the contact
         patch.
@@ -408,25 +453,34 @@ class SuspensionModule:
             # partitioning (each block's is the same)
             s.calls['augmented'] += 1
             partition = tuple(tile(a) for a in s._partition(state.Cq))
-            qdd, lam = s._augmented(q, qd, Qb, Cq, s.gamma(q, qd, motion), motion=motion,
-                                    partition=partition)
+            qdd, lam = s._augmented(
+                q, qd, Qb, Cq, s.gamma(q, qd, motion), motion=motion, partition=partition
+            )
             R = s.reactions(q, lam, tuple(tile(j) for j in s._joint_jacobians(state.q)))
             # Newton-Euler on the frame: all the linkage applies on it (its drive aside)
             on_frame = self._frame_mass * qdd[:, self._frame] - R[:, self._mount_k, 0]
-            P = np.stack([np.full(q.shape[0], self.mount_point[0]),
-                          self.mount_point[1] + tile(pose[0])], -1)
+            P = np.stack(
+                [np.full(q.shape[0], self.mount_point[0]), self.mount_point[1] + tile(pose[0])], -1
+            )
             M_P = on_frame[:, 2] + cross(q[:, self._frame][:, :2] - P, on_frame[:, :2])
-            out = np.concatenate([np.stack([qdd[:, s.ind[0]], on_frame[:, 1], M_P,
-                                            on_frame[:, 0]], -1),
-                                  R[:, :self.n_joints, 0, :2].reshape(q.shape[0], -1)], -1)
-            F_S = (-self._spring_force(qe, qde, values, parts)
-                   * self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1])
+            out = np.concatenate(
+                [
+                    np.stack([qdd[:, s.ind[0]], on_frame[:, 1], M_P, on_frame[:, 0]], -1),
+                    R[:, : self.n_joints, 0, :2].reshape(q.shape[0], -1),
+                ],
+                -1,
+            )
+            F_S = (
+                -self._spring_force(qe, qde, values, parts)
+                * self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1]
+            )
         finally:
             self.time_s += time.perf_counter() - t0
         return out.reshape(blocks, N, -1).transpose(1, 0, 2), F_S
 
-    def constraint_residual(self, state: MultibodyState,
-                            pose: tuple[np.ndarray, ...] | None = None) -> float:
+    def constraint_residual(
+        self, state: MultibodyState, pose: tuple[np.ndarray, ...] | None = None
+    ) -> float:
         """Largest position-constraint violation ``max |C(q)|`` over the states [m]
         (chassis mount: at the mount ``pose`` the states were analysed at)."""
         last = self._last_residual

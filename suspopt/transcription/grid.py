@@ -20,6 +20,7 @@ A grid given as a number is checked before any work (:func:`grid_problems`): few
 road's discrete features cannot represent the motion, and the study is refused with the
 cause; ``"auto"`` meets that floor by construction.
 """
+
 from __future__ import annotations
 
 import math
@@ -56,15 +57,16 @@ def radau_quadrature_weights(segments: int, order: int, duration: float) -> np.n
     return radau_grid(segments, order)[1] * (0.5 * duration)
 
 
-def wheel_hop_frequency(config: 'StudyConfig') -> float:
+def wheel_hop_frequency(config: StudyConfig) -> float:
     """The stiffest wheel-hop frequency over the design box [Hz] (the fastest mode)."""
     v, design = config.vehicle, config.design
     layout = v.layout()
     f = 0.0
     for c in layout.corners:
         axle = v.axles[c.axle]
-        ks = [design[n].upper for n in design.names
-              if n.startswith('k_S') and n[3] == str(c.axle + 1)]
+        ks = [
+            design[n].upper for n in design.names if n.startswith('k_S') and n[3] == str(c.axle + 1)
+        ]
         kr = [design[n].upper for n in design.names if n == f'k_R{c.axle + 1}']
         k = max(ks) + axle.tyre_stiffness
         if kr and axle.track > 0.0:
@@ -73,12 +75,12 @@ def wheel_hop_frequency(config: 'StudyConfig') -> float:
     return f
 
 
-def resolved_frequencies(config: 'StudyConfig', scenario: 'Scenario'
-                         ) -> list[tuple[float, str]]:
+def resolved_frequencies(config: StudyConfig, scenario: Scenario) -> list[tuple[float, str]]:
     """The frequencies [Hz] a grid of ``scenario`` must resolve, each with what it is: the
     stiffest wheel hop, the road content up to :data:`ROAD_FREQUENCY_CAP` times it, and
     the road's discrete features (bumps, steps) whatever their frequency."""
     from suspopt.road import road_tracks
+
     f_hop = wheel_hop_frequency(config)
     layout = config.layout()
     tracks = road_tracks(scenario.road, layout.n_tracks, layout.track_separation())
@@ -86,28 +88,30 @@ def resolved_frequencies(config: 'StudyConfig', scenario: 'Scenario'
     for road in tracks:
         f = scenario.speed * road.max_frequency()
         if road.transient:
-            out.append((f, f'the road\'s {road.kind} ({road.feature()} at '
-                           f'{scenario.speed:g} m/s)'))
+            out.append((f, f"the road's {road.kind} ({road.feature()} at {scenario.speed:g} m/s)"))
         else:
-            out.append((min(f, ROAD_FREQUENCY_CAP * f_hop),
-                        f'the road content ({road.kind} up to {f:.3g} Hz at '
-                        f'{scenario.speed:g} m/s, resolved up to '
-                        f'{ROAD_FREQUENCY_CAP:g} x the wheel hop)'))
+            out.append(
+                (
+                    min(f, ROAD_FREQUENCY_CAP * f_hop),
+                    f'the road content ({road.kind} up to {f:.3g} Hz at '
+                    f'{scenario.speed:g} m/s, resolved up to '
+                    f'{ROAD_FREQUENCY_CAP:g} x the wheel hop)',
+                )
+            )
     return out
 
 
-def auto_segments(config: 'StudyConfig', scenario: 'Scenario', order: int) -> int:
+def auto_segments(config: StudyConfig, scenario: Scenario, order: int) -> int:
     """The automatic number of segments of ``scenario`` (see the module docstring)."""
     freqs = resolved_frequencies(config, scenario)
     f_hop = freqs[0][0]
     f = max(f_hop, min(max(f for f, _ in freqs[1:]), ROAD_FREQUENCY_CAP * f_hop))
     n = math.ceil(scenario.horizon * f * NODES_PER_PERIOD / order)
-    floor = math.ceil(scenario.horizon * max(f for f, _ in freqs) * MIN_NODES_PER_PERIOD
-                      / order)
+    floor = math.ceil(scenario.horizon * max(f for f, _ in freqs) * MIN_NODES_PER_PERIOD / order)
     return max(2, n, floor)
 
 
-def grid_problems(config: 'StudyConfig', scenario: 'Scenario', key: str) -> list[str]:
+def grid_problems(config: StudyConfig, scenario: Scenario, key: str) -> list[str]:
     """Why the grid of ``scenario`` cannot represent its motion (empty if it can): fewer
     than :data:`MIN_NODES_PER_PERIOD` collocation nodes per period of the wheel hop or of
     the road's discrete features (:func:`resolved_frequencies`); a random road's content
@@ -116,6 +120,7 @@ def grid_problems(config: 'StudyConfig', scenario: 'Scenario', key: str) -> list
     nodes_per_s = scenario.segments * scenario.order / scenario.horizon
     freqs = resolved_frequencies(config, scenario)
     from suspopt.road import road_tracks
+
     layout = config.layout()
     tracks = road_tracks(scenario.road, layout.n_tracks, layout.track_separation())
     must = [freqs[0]] + [fw for fw, road in zip(freqs[1:], tracks) if road.transient]
@@ -123,22 +128,24 @@ def grid_problems(config: 'StudyConfig', scenario: 'Scenario', key: str) -> list
         if f > 0.0 and nodes_per_s / f < MIN_NODES_PER_PERIOD:
             need = math.ceil(scenario.horizon * f * MIN_NODES_PER_PERIOD / scenario.order)
             auto = auto_segments(config, scenario, scenario.order)
-            return [f'{key}: {scenario.segments} segment(s) of order {scenario.order} over '
-                    f'{scenario.horizon:g} s give {nodes_per_s / f:.2g} collocation nodes per '
-                    f'period of {what}, {f:.3g} Hz: too coarse to represent the motion (at '
-                    f'least {MIN_NODES_PER_PERIOD:g} nodes per period, {need} segments; '
-                    f'"auto" gives {auto})']
+            return [
+                f'{key}: {scenario.segments} segment(s) of order {scenario.order} over '
+                f'{scenario.horizon:g} s give {nodes_per_s / f:.2g} collocation nodes per '
+                f'period of {what}, {f:.3g} Hz: too coarse to represent the motion (at '
+                f'least {MIN_NODES_PER_PERIOD:g} nodes per period, {need} segments; '
+                f'"auto" gives {auto})'
+            ]
     return []
 
 
-def resolve_segments(config: 'StudyConfig', scenario: 'Scenario', segments: Any) -> int:
+def resolve_segments(config: StudyConfig, scenario: Scenario, segments: Any) -> int:
     """The number of segments of a scenario: as given, or :func:`auto_segments`."""
     if segments == 'auto':
         return auto_segments(config, scenario, scenario.order)
     return int(segments)
 
 
-def nlp_size(config: 'StudyConfig', scenario: 'Scenario') -> int:
+def nlp_size(config: StudyConfig, scenario: Scenario) -> int:
     """Number of NLP variables of one scenario (its discretized states), before building it."""
     layout = config.layout()
     n_states = 2 * (2 + (1 if layout.has_roll else 0) + layout.n)

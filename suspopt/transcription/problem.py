@@ -17,14 +17,16 @@ trajectory with one Radau phase per scenario (:mod:`suspopt.transcription.phase`
 With ``optimize_design=False`` the design is held fixed and IPOPT only solves the
 collocation equations: this is how one design is *evaluated* by collocation.
 """
+
 from __future__ import annotations
 
 import shutil
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import dymos as dm
 import numpy as np
@@ -34,12 +36,21 @@ from suspopt import cache
 from suspopt.config import DESIGN_UNITS, StudyConfig, design_kind
 from suspopt.driver import IpoptDriver, IterationInfo
 from suspopt.errors import ModelError
-from suspopt.models.objective import (ObjectiveQuadratureComp, ScenarioObjectiveComp,
-                                      WeightedObjectiveComp, WorstCaseGapComp)
+from suspopt.models.objective import (
+    ObjectiveQuadratureComp,
+    ScenarioObjectiveComp,
+    WeightedObjectiveComp,
+    WorstCaseGapComp,
+)
 from suspopt.trajectory import Trajectory
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
-from suspopt.transcription.phase import (FIDELITIES, build_phase, state_defs,
-                                         timeseries_names, vehicle_spec)
+from suspopt.transcription.phase import (
+    FIDELITIES,
+    build_phase,
+    state_defs,
+    timeseries_names,
+    vehicle_spec,
+)
 
 #: scales of the objective terms, one table per scenario (term → s_k)
 Scales = tuple[dict[str, float], ...]
@@ -71,6 +82,7 @@ class SolveResult:
 def multibody_modules(config: StudyConfig) -> dict[str, Any]:
     """One multibody module per distinct mechanism of the car (shared by its corners)."""
     from suspopt.multibody.suspension import SuspensionModule
+
     names = dict.fromkeys(ax.mechanism for ax in config.vehicle.axles)
     return {n: SuspensionModule(n, mount=config.multibody.mount) for n in names}
 
@@ -79,13 +91,18 @@ def mount_poses(layout, values: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]
     """The chassis mounts' poses ``(z_M, v_M, ψ, ψ̇)`` (each (N, corners)) along chassis
     states ``values`` (z_C, v_C, theta_C, omega_C[, phi_C, p_C], each (N,))."""
     from suspopt.models import equations as eq
+
     roll = layout.has_roll
     phi, p = (values['phi_C'], values['p_C']) if roll else (0.0, 0.0)
     side = np.array([c.side for c in layout.corners], dtype=float)
     z_M = eq.mount_motion(values['z_C'], values['theta_C'], phi, layout.a, layout.y)
     v_M = eq.mount_motion(values['v_C'], values['omega_C'], p, layout.a, layout.y)
-    return (z_M, v_M, eq.mount_rotation(np.broadcast_to(phi, z_M.shape[:1]), side),
-            eq.mount_rotation(np.broadcast_to(p, z_M.shape[:1]), side))
+    return (
+        z_M,
+        v_M,
+        eq.mount_rotation(np.broadcast_to(phi, z_M.shape[:1]), side),
+        eq.mount_rotation(np.broadcast_to(p, z_M.shape[:1]), side),
+    )
 
 
 class VehicleProblem:
@@ -105,24 +122,34 @@ class VehicleProblem:
         (:data:`suspopt.driver.propagation.TOTALS_METHODS`).
     """
 
-    def __init__(self, config: StudyConfig, fidelity: str, scales: Scales, *,
-                 optimize_design: bool = True, recorder: str | Path | None = None,
-                 progress: Callable[[IterationInfo], None] | None = None,
-                 use_cache: bool = True, totals: str = 'auto'):
+    def __init__(
+        self,
+        config: StudyConfig,
+        fidelity: str,
+        scales: Scales,
+        *,
+        optimize_design: bool = True,
+        recorder: str | Path | None = None,
+        progress: Callable[[IterationInfo], None] | None = None,
+        use_cache: bool = True,
+        totals: str = 'auto',
+    ):
         if fidelity not in FIDELITIES:
-            raise ValueError(f"fidelity must be one of {FIDELITIES}, got {fidelity!r}")
+            raise ValueError(f'fidelity must be one of {FIDELITIES}, got {fidelity!r}')
         t0 = time.perf_counter()
         self.config, self.fidelity = config, fidelity
         self.scenarios = config.scenarios()
         if len(scales) != len(self.scenarios):
-            raise ValueError(f'scales for {len(scales)} scenarios, the study has '
-                             f'{len(self.scenarios)}')
+            raise ValueError(
+                f'scales for {len(scales)} scenarios, the study has {len(self.scenarios)}'
+            )
         self.scales = tuple(dict(s) for s in scales)
         self.terms_names = config.terms()
         self.design_names = config.design_names()
         self.optimize_design = optimize_design
-        self.opt_names = [n for n in self.design_names
-                          if optimize_design and config.design[n].optimize]
+        self.opt_names = [
+            n for n in self.design_names if optimize_design and config.design[n].optimize
+        ]
         self._work_dir = tempfile.mkdtemp(prefix='suspopt-om-')
         try:  # an interrupt or a failure while building leaves no scratch directory
             self.modules = multibody_modules(config) if fidelity == 'mixed' else {}
@@ -140,12 +167,22 @@ class VehicleProblem:
             for name in self.design_names:
                 dv = config.design[name]
                 span = dv.upper - dv.lower if dv.upper > dv.lower else max(abs(dv.lower), 1.0)
-                traj.add_parameter(name, val=dv.initial, units=DESIGN_UNITS[design_kind(name)],
-                                   opt=True, lower=dv.lower, upper=dv.upper, ref0=dv.lower,
-                                   ref=dv.lower + span, static_target=True)
+                traj.add_parameter(
+                    name,
+                    val=dv.initial,
+                    units=DESIGN_UNITS[design_kind(name)],
+                    opt=True,
+                    lower=dv.lower,
+                    upper=dv.upper,
+                    ref0=dv.lower,
+                    ref=dv.lower + span,
+                    static_target=True,
+                )
             for i, sc in enumerate(self.scenarios):
-                p.model.add_subsystem(f'quadrature_{i}', ObjectiveQuadratureComp(
-                    weights=self._quadrature[i], terms=nt))
+                p.model.add_subsystem(
+                    f'quadrature_{i}',
+                    ObjectiveQuadratureComp(weights=self._quadrature[i], terms=nt),
+                )
                 p.model.add_subsystem(f'objective_{i}', WeightedObjectiveComp(terms=nt))
                 # straight from the ODE: the timeseries then is on no derivative path
                 p.model.connect(f'traj.s{i}.rhs_all.dJ_dt', f'quadrature_{i}.dJ_dt')
@@ -163,8 +200,10 @@ class VehicleProblem:
                 p.model.add_constraint('worst.gap', upper=0.0, ref=1.0)
                 p.model.add_objective('bound.t')
             else:
-                p.model.add_subsystem('objective', ScenarioObjectiveComp(
-                    weights=tuple(sc.weight for sc in self.scenarios)))
+                p.model.add_subsystem(
+                    'objective',
+                    ScenarioObjectiveComp(weights=tuple(sc.weight for sc in self.scenarios)),
+                )
                 for i in range(n_sc):
                     p.model.connect(f'objective_{i}.f', f'objective.f{i}')
                 # IPOPT sees the weighted mean (driver scaling only; f stays Σ w_s f_s):
@@ -177,11 +216,17 @@ class VehicleProblem:
             cached = cache.load(self.cache_key) if use_cache else None
             self.coloring_from_cache = cached is not None
             opt = config.optimizer
-            self.driver = IpoptDriver(p, max_iter=opt.max_iter, tol=opt.tol,
-                                      print_level=opt.print_level, progress=progress,
-                                      watch=[self.design_var(n) for n in self.design_names],
-                                      coloring=cached, opt_settings=opt.options,
-                                      totals=totals)
+            self.driver = IpoptDriver(
+                p,
+                max_iter=opt.max_iter,
+                tol=opt.tol,
+                print_level=opt.print_level,
+                progress=progress,
+                watch=[self.design_var(n) for n in self.design_names],
+                coloring=cached,
+                opt_settings=opt.options,
+                totals=totals,
+            )
 
             self.recorder_path = None
             if recorder is not None:
@@ -227,13 +272,17 @@ class VehicleProblem:
     def set_design(self, design: dict[str, float]) -> None:
         """Set the design (every variable) as the starting point / fixed design."""
         for name in self.design_names:
-            self.problem.set_val(self.design_var(name), float(design[name]),
-                                 units=DESIGN_UNITS[design_kind(name)])
+            self.problem.set_val(
+                self.design_var(name), float(design[name]), units=DESIGN_UNITS[design_kind(name)]
+            )
 
     def design(self) -> dict[str, float]:
-        return {n: float(self.problem.get_val(self.design_var(n),
-                                              units=DESIGN_UNITS[design_kind(n)])[0])
-                for n in self.design_names}
+        return {
+            n: float(
+                self.problem.get_val(self.design_var(n), units=DESIGN_UNITS[design_kind(n)])[0]
+            )
+            for n in self.design_names
+        }
 
     def set_initial_guess(self, trajs: list[Trajectory | None] | Trajectory | None) -> None:
         """Initialize the discretized states of every scenario from a trajectory (or zeros).
@@ -242,8 +291,9 @@ class VehicleProblem:
         the guess starts from."""
         if not isinstance(trajs, (list, tuple)):
             trajs = [trajs] * len(self.scenarios)
-        for i, (phase, spec, sc, traj) in enumerate(zip(self.phases, self.specs,
-                                                        self.scenarios, trajs)):
+        for i, (phase, spec, sc, traj) in enumerate(
+            zip(self.phases, self.specs, self.scenarios, trajs)
+        ):
             for name, _, _, _, shape in state_defs(spec):
                 if traj is None:
                     t, vals = np.array([0.0, sc.horizon]), np.zeros((2,) + shape)
@@ -283,8 +333,11 @@ class VehicleProblem:
             val = p.get_val(ts + name)
             values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
         values['wheel_z'] = values['q_W' if self.fidelity == 'mixed' else 'z_W']
-        info = {'fidelity': self.fidelity, 'method': 'collocation',
-                'scenario': self.scenarios[scenario].name}
+        info = {
+            'fidelity': self.fidelity,
+            'method': 'collocation',
+            'scenario': self.scenarios[scenario].name,
+        }
         if self.fidelity == 'mixed':
             info['max_constraint_residual_m'] = self.constraint_residual(values)
         J = np.array([self.terms(scenario)[k] for k in self.terms_names])
@@ -298,8 +351,11 @@ class VehicleProblem:
         poses = mount_poses(lay, values) if self.config.multibody.mount == 'chassis' else None
         for c, corner in enumerate(lay.corners):
             mod = self.modules[axles[corner.axle].mechanism]
-            kin = mod.kinematics(values['z_W'][:, c], values['v_W'][:, c],
-                                 pose=None if poses is None else tuple(p[:, c] for p in poses))
+            kin = mod.kinematics(
+                values['z_W'][:, c],
+                values['v_W'][:, c],
+                pose=None if poses is None else tuple(p[:, c] for p in poses),
+            )
             worst = max(worst, mod.constraint_residual(kin.state, kin.pose))
         return worst
 
@@ -307,14 +363,18 @@ class VehicleProblem:
         """Setup and coloring times, whether the coloring came from the cache, and all
         multibody solver calls so far (for the results files)."""
         c = self.driver.coloring
-        return {'setup_s': self.times['setup_s'],
-                'coloring_s': self.times.get('coloring_s', 0.0),
-                'coloring_from_cache': self.coloring_from_cache,
-                'nlp': {'variables': self.driver.layout().n,
-                        'constraints': self.driver.layout().m,
-                        'jacobian_nonzeros': c.nnz if c else 0,
-                        'colors': c.n_colors if c else 0},
-                'multibody_calls_total': self.multibody_calls()}
+        return {
+            'setup_s': self.times['setup_s'],
+            'coloring_s': self.times.get('coloring_s', 0.0),
+            'coloring_from_cache': self.coloring_from_cache,
+            'nlp': {
+                'variables': self.driver.layout().n,
+                'constraints': self.driver.layout().m,
+                'jacobian_nonzeros': c.nnz if c else 0,
+                'colors': c.n_colors if c else 0,
+            },
+            'multibody_calls_total': self.multibody_calls(),
+        }
 
     def multibody_calls(self) -> dict[str, int]:
         """Batched multibody solver calls so far (position analyses, augmented solves)."""
@@ -340,8 +400,9 @@ class VehicleProblem:
         except om.AnalysisError as err:
             raise ModelError(f'model evaluation failed at the starting point: {err}') from None
         if self.aggregate == 'max':  # start the bound on the worst case
-            p.set_val('bound.t', max(self.scenario_objective(i)
-                                     for i in range(len(self.scenarios))))
+            p.set_val(
+                'bound.t', max(self.scenario_objective(i) for i in range(len(self.scenarios)))
+            )
         t1 = time.perf_counter()
         computed = drv.coloring is None
         coloring = drv.total_coloring()
@@ -358,16 +419,24 @@ class VehicleProblem:
             msg += f' (last model error: {drv.last_error})'
         n_sc = len(self.scenarios)
         return SolveResult(
-            fidelity=self.fidelity, design=self.design(), objective=self.objective(),
+            fidelity=self.fidelity,
+            design=self.design(),
+            objective=self.objective(),
             scenario_objectives=[self.scenario_objective(i) for i in range(n_sc)],
-            terms=[self.terms(i) for i in range(n_sc)], scales=[dict(s) for s in self.scales],
-            success=success, status=drv.status_message,
+            terms=[self.terms(i) for i in range(n_sc)],
+            scales=[dict(s) for s in self.scales],
+            success=success,
+            status=drv.status_message,
             iterations=len(drv.history) - 1 if drv.history else 0,
             function_evaluations=drv.n_function_evals,
-            gradient_evaluations=drv.n_gradient_evals, times=times,
+            gradient_evaluations=drv.n_gradient_evals,
+            times=times,
             multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},
-            coloring_from_cache=self.coloring_from_cache, history=list(drv.history), message=msg,
-            interrupted=drv.interrupted)
+            coloring_from_cache=self.coloring_from_cache,
+            history=list(drv.history),
+            message=msg,
+            interrupted=drv.interrupted,
+        )
 
     def record(self, label: str) -> None:
         """Record every output (trajectories included) as case ``label`` in the recorder."""
@@ -381,7 +450,7 @@ class VehicleProblem:
         finally:
             shutil.rmtree(self._work_dir, ignore_errors=True)
 
-    def __enter__(self) -> 'VehicleProblem':
+    def __enter__(self) -> VehicleProblem:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -11,6 +11,7 @@ current code has in addition, such as new markers, are not compared).
 The recorded files come from commit c12b754 (main before the refactor); regenerate them
 only for an intended change of results, and say so in the commit.
 """
+
 from __future__ import annotations
 
 import json
@@ -37,8 +38,9 @@ def inputs() -> dict[str, np.ndarray]:
     """Wheel travels, rates and the two load magnitudes (F_S, F_T) of the 11 states."""
     z = np.linspace(-0.08, 0.08, 11)
     v = 0.6 * np.sin(np.arange(11) * 1.3)
-    loads = np.stack([2500.0 * np.cos(np.arange(11) * 0.7),
-                      3000.0 * np.sin(np.arange(11) * 0.9 + 0.2)], -1)
+    loads = np.stack(
+        [2500.0 * np.cos(np.arange(11) * 0.7), 3000.0 * np.sin(np.arange(11) * 0.9 + 0.2)], -1
+    )
     return {'z': z, 'v': v, 'loads': loads}
 
 
@@ -47,10 +49,16 @@ def compute(name: str) -> dict[str, list]:
     s = PlanarMultibodySolver(mech)
     x = inputs()
     st = s.dynamics(x['z'][:, None] + s.q0[s.ind[0]], x['v'][:, None], x['loads'])
-    out = {'q': st.q, 'qd': st.qd, 'qdd': st.qdd, 'lam': st.lam,
-           'reactions': s.joint_reactions(st.lam),
-           'Cq': s.constraint_jacobian(st.q), 'gamma': s.gamma(st.q, st.qd),
-           'Q': s.generalized_forces(st.q, x['loads'])}
+    out = {
+        'q': st.q,
+        'qd': st.qd,
+        'qdd': st.qdd,
+        'lam': st.lam,
+        'reactions': s.joint_reactions(st.lam),
+        'Cq': s.constraint_jacobian(st.q),
+        'gamma': s.gamma(st.q, st.qd),
+        'Q': s.generalized_forces(st.q, x['loads']),
+    }
     pos, vel = s.marker_positions(st.q), s.marker_velocities(st.q, st.qd)
     for i, mk in enumerate(s.marker_names):  # by name: a file may gain markers
         out[f'marker {mk}'], out[f'marker velocity {mk}'] = pos[:, i], vel[:, i]
@@ -60,9 +68,11 @@ def compute(name: str) -> dict[str, list]:
     qd_off = st.qd + 1e-2 * rng.standard_normal(st.qd.shape)
     out['C_off'] = s.constraints(q_off)
     out['qdd_baumgarte'], out['lam_baumgarte'] = s.solve_augmented(
-        q_off, qd_off, s.generalized_forces(q_off, x['loads']), baumgarte=(10.0, 10.0))
+        q_off, qd_off, s.generalized_forces(q_off, x['loads']), baumgarte=(10.0, 10.0)
+    )
     out['qdd_dense'], out['lam_dense'] = s.solve_augmented(
-        q_off, qd_off, s.generalized_forces(q_off, x['loads']), method='dense')
+        q_off, qd_off, s.generalized_forces(q_off, x['loads']), method='dense'
+    )
     # the vehicle interface: the spring element inside the mechanism, driven so that its
     # force equals the recorded load (k = 30 kN/m, no damping, the chassis mount placed at
     # z_M = q^z_U - F_S / k), gives the recorded accelerations and reactions
@@ -74,7 +84,8 @@ def compute(name: str) -> dict[str, list]:
     out.update(q_U=q_U, qd_U=qd_U, q_W=kin.q_W, qd_W=kin.qd_W)
     k, F_S = np.full(q_U.size, 3.0e4), x['loads'][:, 0]
     out['zdd_W'], out['module_F_S'], out['module_reactions'] = mod.dynamics(
-        kin.state, q_U - F_S / k, np.zeros_like(q_U), k, np.zeros_like(k), x['loads'][:, 1])
+        kin.state, q_U - F_S / k, np.zeros_like(q_U), k, np.zeros_like(k), x['loads'][:, 1]
+    )
     # time simulation: a linear spring on the spring point's vertical displacement and a
     # tyre pulse (as in tests/test_multibody_exudyn.py), both constraint methods
     z_U0 = s.marker_reference()[spring, 1]
@@ -86,8 +97,16 @@ def compute(name: str) -> dict[str, list]:
 
     t = np.linspace(0.0, 0.3, 31)
     for method in ('partitioned', 'baumgarte'):
-        tr = simulate_mechanism(s, (0.0, 0.3), [s.q0[s.ind[0]]], [0.0], loads=loads,
-                                method=method, t_eval=t, max_step=0.01)
+        tr = simulate_mechanism(
+            s,
+            (0.0, 0.3),
+            [s.q0[s.ind[0]]],
+            [0.0],
+            loads=loads,
+            method=method,
+            t_eval=t,
+            max_step=0.01,
+        )
         out[f'sim_{method}_q'], out[f'sim_{method}_qd'] = tr.q, tr.qd
         out[f'sim_{method}_qdd'], out[f'sim_{method}_lam'] = tr.qdd, tr.lam
     return {k: np.asarray(v).tolist() for k, v in out.items()}
@@ -99,8 +118,7 @@ def path(name: str) -> Path:
 
 def main() -> int:
     for name in LINKAGES:
-        data = {'inputs': {k: v.tolist() for k, v in inputs().items()},
-                'outputs': compute(name)}
+        data = {'inputs': {k: v.tolist() for k, v in inputs().items()}, 'outputs': compute(name)}
         path(name).write_text(json.dumps(data))
         print(f'wrote {path(name)}')
     return 0

@@ -2,6 +2,7 @@
 mechanism file. A type is a spec dataclass (its TOML keys and ``read``) and a group class
 (its equations, batched over all its elements and N states); registering it is one
 entry below."""
+
 from __future__ import annotations
 
 from typing import Union
@@ -30,6 +31,18 @@ def is_spring(spec: object) -> bool:
     return issubclass(type(spec).group, ScalarSpringGroup)
 
 
-__all__ = ['FORCE_TYPES', 'ForceSpec', 'JOINT_TYPES', 'JointSpec', 'FixedJoint',
-           'LinearSpringDamper', 'PointLoad', 'PrescribedJoint', 'PrescribedMotion',
-           'PrismaticJoint', 'RevoluteJoint', 'SpringDamper', 'is_spring']
+__all__ = [
+    'FORCE_TYPES',
+    'ForceSpec',
+    'JOINT_TYPES',
+    'JointSpec',
+    'FixedJoint',
+    'LinearSpringDamper',
+    'PointLoad',
+    'PrescribedJoint',
+    'PrescribedMotion',
+    'PrismaticJoint',
+    'RevoluteJoint',
+    'SpringDamper',
+    'is_spring',
+]

@@ -16,6 +16,7 @@ torque about its CG), see :meth:`JointGroup.reactions`.
 A force type (:class:`ForceGroup`) supplies the generalized force on each connected body
 (N, ne, S, 3) from ``q``, ``q̇`` and its run-time parameter values (N, ne) per parameter.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -94,8 +95,8 @@ class BodyPoints:
         self.bodies = np.asarray(bodies, dtype=int)
         self.u = np.asarray(u, dtype=float)
         self.u_perp = perp(self.u)
-        self.phi = 3 * self.bodies + 2            # (ne, S)
-        self.coords = flat_index(self.bodies)     # (ne, S, 3)
+        self.phi = 3 * self.bodies + 2  # (ne, S)
+        self.coords = flat_index(self.bodies)  # (ne, S, 3)
 
     def arms(self, qe: np.ndarray) -> np.ndarray:
         """``A(φ) u`` (N, ne, S, 2)."""
@@ -157,7 +158,7 @@ class AxisProjection:
         G[:, :, 0, :2] = -n
         G[:, :, 0, 2] = cross(n, p[:, :, 1] - qb[:, :, 0, :2])  # (B n̄)ᵀ (p_b - r_a)
         G[:, :, 1, :2] = n
-        G[:, :, 1, 2] = cross(arm[:, :, 1], n)                 # nᵀ perp(A_b u_b)
+        G[:, :, 1, 2] = cross(arm[:, :, 1], n)  # nᵀ perp(A_b u_b)
         return dot(n, p[:, :, 1] - p[:, :, 0]), G
 
     def quadratic(self, qe: np.ndarray, qde: np.ndarray, geometry=None) -> np.ndarray:
@@ -168,21 +169,26 @@ class AxisProjection:
         w = vb[..., 2]
         v = vb[..., :2] + perp(arm) * w[..., None]
         wa, wb = w[:, :, 0], w[:, :, 1]
-        return (-dot(n, p[:, :, 1] - p[:, :, 0]) * wa**2
-                + 2.0 * wa * dot(perp(n), v[:, :, 1] - v[:, :, 0])
-                - dot(n, arm[:, :, 1]) * wb**2 + dot(n, arm[:, :, 0]) * wa**2)
+        return (
+            -dot(n, p[:, :, 1] - p[:, :, 0]) * wa**2
+            + 2.0 * wa * dot(perp(n), v[:, :, 1] - v[:, :, 0])
+            - dot(n, arm[:, :, 1]) * wb**2
+            + dot(n, arm[:, :, 0]) * wa**2
+        )
 
 
-def axis_projection(qe: np.ndarray, bodies: np.ndarray, u: np.ndarray,
-                    axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def axis_projection(
+    qe: np.ndarray, bodies: np.ndarray, u: np.ndarray, axis: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """:meth:`AxisProjection.measure` of the elements on ``bodies`` (ne, 2) with points
     ``u`` (ne, 2, 2) and axis ``axis`` (ne, 2) in body a's axes: ``ℓ`` (N, ne) and
     ``∂ℓ/∂q`` of a and b (N, ne, 2, 3)."""
     return AxisProjection(bodies, u, axis).measure(qe)
 
 
-def axis_projection_quadratic(qe: np.ndarray, qde: np.ndarray, bodies: np.ndarray,
-                              u: np.ndarray, axis: np.ndarray) -> np.ndarray:
+def axis_projection_quadratic(
+    qe: np.ndarray, qde: np.ndarray, bodies: np.ndarray, u: np.ndarray, axis: np.ndarray
+) -> np.ndarray:
     """:meth:`AxisProjection.quadratic` of the elements (see :func:`axis_projection`)."""
     return AxisProjection(bodies, u, axis).quadratic(qe, qde)
 
@@ -202,8 +208,9 @@ class JointGroup:
     def __init__(self, specs: list[Any], layout: Layout):
         self.specs = specs
         self.names = [s.name for s in specs]
-        self.bodies = np.array([[layout.index[b] for b in s.bodies] for s in specs],
-                               dtype=int).reshape(len(specs), self.n_bodies)
+        self.bodies = np.array(
+            [[layout.index[b] for b in s.bodies] for s in specs], dtype=int
+        ).reshape(len(specs), self.n_bodies)
         self.rows = np.zeros((len(specs), self.n_equations), dtype=int)  # set by the solver
 
     def residual(self, qe: np.ndarray, drive: np.ndarray | None = None) -> np.ndarray:
@@ -212,12 +219,12 @@ class JointGroup:
     def jacobian(self, qe: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
-    def gamma(self, qe: np.ndarray, qde: np.ndarray,
-              drive: np.ndarray | None = None) -> np.ndarray:
+    def gamma(self, qe: np.ndarray, qde: np.ndarray, drive: np.ndarray | None = None) -> np.ndarray:
         raise NotImplementedError
 
-    def residual_jacobian(self, qe: np.ndarray,
-                          drive: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def residual_jacobian(
+        self, qe: np.ndarray, drive: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Both at once (Newton's method); a type may share intermediate results."""
         return self.residual(qe, drive), self.jacobian(qe)
 
@@ -230,8 +237,9 @@ class JointGroup:
         reference) as one array with a state axis second, passed back to its methods."""
         raise NotImplementedError
 
-    def reactions(self, qe: np.ndarray | None, lam: np.ndarray,
-                  jacobian: np.ndarray | None = None) -> np.ndarray:
+    def reactions(
+        self, qe: np.ndarray | None, lam: np.ndarray, jacobian: np.ndarray | None = None
+    ) -> np.ndarray:
         """Generalized constraint force ``-(∂C/∂q_b)ᵀ λ`` on each connected body b:
         (N, ne, S, 3) = force (x, z) and torque about the body's CG (for the ground: about
         the origin). ``lam`` (N, ne, k) are this group's multipliers; ``jacobian``: this
@@ -320,11 +328,12 @@ class CoincidenceSet:
     rows of other joints zero) and each ``γ`` the difference of two ``a φ̇²`` entries.
     ``rows``: the constraint row of each group's equations (ne, k)."""
 
-    def __init__(self, groups: list[CoincidenceJointGroup], rows: list[np.ndarray], nb: int,
-                 m: int):
+    def __init__(
+        self, groups: list[CoincidenceJointGroup], rows: list[np.ndarray], nb: int, m: int
+    ):
         ncoord = 3 * (nb + 1)
         n = 3 * nb
-        bodies = np.concatenate([g.bodies.ravel() for g in groups])      # (P,) per point
+        bodies = np.concatenate([g.bodies.ravel() for g in groups])  # (P,) per point
         u = np.concatenate([g.u.reshape(-1, 2) for g in groups])
         self.n_points = P = bodies.size
         self.phi = np.repeat(3 * bodies + 2, 2)  # per arm component
@@ -333,8 +342,13 @@ class CoincidenceSet:
         self.negative_arms = slice(ncoord + 2 * P, ncoord + 4 * P)
         angles = [a for g in groups if g.angle_equation for a in g.angle]
         start = ncoord + 4 * P
-        ANGLE, NEGZERO, ZERO, ONE, MINUS = (start, start + len(angles), start + len(angles) + 1,
-                                            start + len(angles) + 2, start + len(angles) + 3)
+        ANGLE, NEGZERO, ZERO, ONE, MINUS = (
+            start,
+            start + len(angles),
+            start + len(angles) + 1,
+            start + len(angles) + 2,
+            start + len(angles) + 3,
+        )
         self.width = start + len(angles) + 4
         self.template = np.zeros(self.width)
         self.template[ANGLE:NEGZERO] = angles
@@ -345,13 +359,14 @@ class CoincidenceSet:
         def put(r, b, c, src):
             if b < nb:
                 cq[r * n + 3 * b + c] = src
+
         first = angle = 0
         for g, r in zip(groups, rows):
             for e in range(len(g.names)):
                 bi, bj = g.bodies[e]
-                pi, pj = first, first + 1                           # points of both slots
+                pi, pj = first, first + 1  # points of both slots
                 first += 2
-                ai, aj = ncoord + 2 * pi, ncoord + 2 * pj            # their arms (x, z)
+                ai, aj = ncoord + 2 * pi, ncoord + 2 * pj  # their arms (x, z)
                 for k in range(2):
                     eq.append((r[e, k], (3 * bi + k, ai + k, 3 * bj + k, aj + k)))
                     gam.append((r[e, k], (2 * pi + k, 2 * pj + k)))
@@ -381,10 +396,10 @@ class CoincidenceSet:
         N = q.shape[0]
         v = np.empty((N, self.width))
         v[...] = self.template
-        v[:, :q.shape[1]] = q
+        v[:, : q.shape[1]] = q
         phi = v.take(self.phi, axis=1)
         arm = v[:, self.arms]
-        np.multiply(np.cos(phi), self.u, out=arm)        # A u = cos φ u + sin φ perp(u)
+        np.multiply(np.cos(phi), self.u, out=arm)  # A u = cos φ u + sin φ perp(u)
         arm += np.sin(phi) * self.u_perp
         np.negative(arm, out=v[:, self.negative_arms])
         return v
@@ -404,7 +419,7 @@ class CoincidenceSet:
         N = v.shape[0]
         w = qde.reshape(N, -1).take(self.phi, axis=1)
         g = np.empty((N, 2 * self.n_points + 1))
-        np.multiply(v[:, self.arms], w ** 2, out=g[:, :-1])
+        np.multiply(v[:, self.arms], w**2, out=g[:, :-1])
         g[:, -1] = 0.0
         t = g.take(self.gamma_terms, axis=1)
         return t[:, 0] - t[:, 1]
@@ -420,16 +435,23 @@ class ForceGroup:
     def __init__(self, specs: list[Any], layout: Layout):
         self.specs = specs
         self.names = [s.name for s in specs]
-        self.defaults = {p: np.array([getattr(s, p) for s in specs], dtype=float)
-                         for p in self.parameters}
+        self.defaults = {
+            p: np.array([getattr(s, p) for s in specs], dtype=float) for p in self.parameters
+        }
 
-    def generalized_force(self, qe: np.ndarray, qde: np.ndarray | None,
-                          values: dict[str, np.ndarray]) -> np.ndarray:
+    def generalized_force(
+        self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray]
+    ) -> np.ndarray:
         """Generalized force on each connected body (``self.bodies``), (N, ne, S, 3)."""
         raise NotImplementedError
 
-    def forces(self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray],
-               geometry: Any = None) -> tuple[np.ndarray, Any]:
+    def forces(
+        self,
+        qe: np.ndarray,
+        qde: np.ndarray | None,
+        values: dict[str, np.ndarray],
+        geometry: Any = None,
+    ) -> tuple[np.ndarray, Any]:
         """:meth:`generalized_force` and what the type computed on the way that a query
         may reuse (a spring's :meth:`ScalarSpringGroup.tension`; None here); ``geometry``:
         a spring's :meth:`ScalarSpringGroup.geometry` at ``qe``, if the caller has it."""
@@ -457,8 +479,10 @@ class ScalarSpringGroup(ForceGroup):
         self.points = BodyPoints(self.bodies, self.u)
         self.setup(specs, layout)
         ref = self.length(layout.q0e[None])[0]
-        self.free_length = np.array([ref[i] if s.free_length is None else s.free_length
-                                     for i, s in enumerate(specs)], dtype=float)
+        self.free_length = np.array(
+            [ref[i] if s.free_length is None else s.free_length for i, s in enumerate(specs)],
+            dtype=float,
+        )
 
     def setup(self, specs: list[Any], layout: Layout) -> None:
         """Type-specific constant data (called before the reference length is taken)."""
@@ -493,15 +517,21 @@ class ScalarSpringGroup(ForceGroup):
     def rate(self, grad: np.ndarray, qde: np.ndarray) -> np.ndarray:
         return np.einsum('nesc,nesc->ne', grad, qde[:, self.bodies])
 
-    def tension(self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray],
-                geometry: Any = None) -> tuple[np.ndarray, ...]:
+    def tension(
+        self,
+        qe: np.ndarray,
+        qde: np.ndarray | None,
+        values: dict[str, np.ndarray],
+        geometry: Any = None,
+    ) -> tuple[np.ndarray, ...]:
         """``ℓ``, ``ℓ̇``, ``f`` (N, ne each) and the gradient (N, ne, 2, 3)."""
         ell, grad = self.measure(qe, geometry)
         f = values['stiffness'] * (ell - self.free_length) + values['preload']
         if qde is None:
             if np.any(values['damping'] != 0.0):
-                raise ValueError(f'force elements {self.names} have damping: the '
-                                 'velocities qd are needed')
+                raise ValueError(
+                    f'force elements {self.names} have damping: the velocities qd are needed'
+                )
             ell_d = np.full_like(ell, np.nan)
         else:
             ell_d = self.rate(grad, qde)
@@ -520,13 +550,20 @@ class ScalarSpringGroup(ForceGroup):
 
     def potential(self, qe, values):
         s = self.length(qe) - self.free_length
-        return 0.5 * values['stiffness'] * s ** 2 + values['preload'] * s
+        return 0.5 * values['stiffness'] * s**2 + values['preload'] * s
 
 
 def spring_spec_keys() -> dict[str, bool]:
     """TOML keys shared by the spring-damper types (True: required)."""
-    return {'name': True, 'type': True, 'markers': True, 'stiffness': False,
-            'damping': False, 'preload': False, 'free_length': False}
+    return {
+        'name': True,
+        'type': True,
+        'markers': True,
+        'stiffness': False,
+        'damping': False,
+        'preload': False,
+        'free_length': False,
+    }
 
 
 def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
@@ -539,18 +576,41 @@ def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
         pair = [rd.marker(m, f'{where}.markers') for m in pair]
         bodies = [rd.markers[m][0] for m in pair if m in rd.markers]
         if len(bodies) == 2 and bodies[0] == bodies[1]:
-            rd.err(f'{where}.markers', f'both ends are on body {bodies[0]!r}: a spring '
-                   'needs its ends on two different bodies')
+            rd.err(
+                f'{where}.markers',
+                f'both ends are on body {bodies[0]!r}: a spring '
+                'needs its ends on two different bodies',
+            )
     free = data.get('free_length')
-    return {'markers': (pair[0], pair[1]),
-            'stiffness': rd.number(data, 'stiffness', where, nonnegative=True, default=0.0),
-            'damping': rd.number(data, 'damping', where, nonnegative=True, default=0.0),
-            'preload': rd.number(data, 'preload', where, default=0.0),
-            'free_length': None if free is None else rd.number(data, 'free_length', where,
-                                                               positive=True)}
+    return {
+        'markers': (pair[0], pair[1]),
+        'stiffness': rd.number(data, 'stiffness', where, nonnegative=True, default=0.0),
+        'damping': rd.number(data, 'damping', where, nonnegative=True, default=0.0),
+        'preload': rd.number(data, 'preload', where, default=0.0),
+        'free_length': None
+        if free is None
+        else rd.number(data, 'free_length', where, positive=True),
+    }
 
 
-__all__ = ['COORDINATES', 'GROUND', 'AxisProjection', 'BodyPoints', 'CoincidenceJointGroup',
-           'CoincidenceSet', 'ForceGroup', 'JointGroup', 'Layout', 'ScalarSpringGroup',
-           'axis_projection', 'axis_projection_quadratic', 'coincidence_jacobian', 'cross',
-           'dot', 'flat_index', 'gather', 'perp', 'rot_apply']
+__all__ = [
+    'COORDINATES',
+    'GROUND',
+    'AxisProjection',
+    'BodyPoints',
+    'CoincidenceJointGroup',
+    'CoincidenceSet',
+    'ForceGroup',
+    'JointGroup',
+    'Layout',
+    'ScalarSpringGroup',
+    'axis_projection',
+    'axis_projection_quadratic',
+    'coincidence_jacobian',
+    'cross',
+    'dot',
+    'flat_index',
+    'gather',
+    'perp',
+    'rot_apply',
+]

@@ -7,6 +7,7 @@ revolute joint, and their relative angle keeps its reference value:
 
 A body with ``fixed = true`` is a fixed joint to the ground at its CG, ``C = q_b - q_b0``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -26,8 +27,7 @@ class FixedJoint:
     bodies: tuple[str, str]
     point: tuple[float, float] | None = None
     type: ClassVar[str] = 'fixed'
-    keys: ClassVar[dict[str, bool]] = {'name': True, 'type': True, 'bodies': True,
-                                       'point': False}
+    keys: ClassVar[dict[str, bool]] = {'name': True, 'type': True, 'bodies': True, 'point': False}
 
     @classmethod
     def read(cls, rd, data: dict, where: str, name: str) -> FixedJoint:
@@ -44,8 +44,9 @@ class FixedGroup(CoincidenceJointGroup):
 
     def joint_points(self, specs, layout):
         cg = layout.q0e[self.bodies[:, 0], :2]
-        pts = np.array([cg[k] if s.point is None else s.point for k, s in enumerate(specs)],
-                       dtype=float).reshape(-1, 1, 2)
+        pts = np.array(
+            [cg[k] if s.point is None else s.point for k, s in enumerate(specs)], dtype=float
+        ).reshape(-1, 1, 2)
         return layout.local(self.bodies, pts)
 
 

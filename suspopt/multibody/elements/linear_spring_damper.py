@@ -13,6 +13,7 @@ spring point on the arm as end 1 gives the point load ``-F_S`` of paper eq. 12 t
 ``F_S = k q^z_U + c q̇^z_U``). ``ℓ0`` defaults to the reference value of ``ℓ``, which must
 be > 0: the axis points from marker 0 towards marker 1.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,8 +21,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import (AxisProjection, ScalarSpringGroup,
-                                             read_spring_common, rot_apply, spring_spec_keys)
+from suspopt.multibody.elements.base import (
+    AxisProjection,
+    ScalarSpringGroup,
+    read_spring_common,
+    rot_apply,
+    spring_spec_keys,
+)
 
 
 @dataclass(frozen=True)
@@ -44,18 +50,24 @@ class LinearSpringDamper:
         common = read_spring_common(rd, data, where)
         axis = rd.unit_axis(data, 'axis', where)
         m0, m1 = common['markers']
-        if (m0 in rd.markers and m1 in rd.markers and np.all(np.isfinite(axis))
-                and rd.markers[m0][0] != rd.markers[m1][0]):
+        if (
+            m0 in rd.markers
+            and m1 in rd.markers
+            and np.all(np.isfinite(axis))
+            and rd.markers[m0][0] != rd.markers[m1][0]
+        ):
             (x0, z0), (x1, z1) = rd.markers[m0][1], rd.markers[m1][1]
             ref = axis[0] * (x1 - x0) + axis[1] * (z1 - z0)
             if not ref > 0.0:
-                rd.err(f'{where}.axis', f'must point from marker {m0!r} towards marker '
-                       f'{m1!r}: their reference distance along it is {ref:g}, not > 0')
+                rd.err(
+                    f'{where}.axis',
+                    f'must point from marker {m0!r} towards marker '
+                    f'{m1!r}: their reference distance along it is {ref:g}, not > 0',
+                )
         return cls(name=name, axis=axis, **common)
 
 
 class LinearSpringDamperGroup(ScalarSpringGroup):
-
     def setup(self, specs, layout):
         axis = np.array([s.axis for s in specs], dtype=float).reshape(-1, 2)
         self.axis = rot_apply(-layout.angle0(self.bodies[:, 0]), axis)  # in body 0's axes

@@ -3,6 +3,7 @@ marker (``F_e`` of paper eq. 11; SPEC §3's ``-F_S`` and ``+F_T``):
 
     Q_b = [ F ;  (A(φ_b) u) × F ],    F = magnitude · direction
 """
+
 from __future__ import annotations
 
 import math
@@ -23,8 +24,12 @@ class PointLoad:
     direction: tuple[float, float]
     magnitude: float = 0.0
     type: ClassVar[str] = 'point_load'
-    keys: ClassVar[dict[str, bool]] = {'name': True, 'type': False, 'marker': True,
-                                       'direction': True}
+    keys: ClassVar[dict[str, bool]] = {
+        'name': True,
+        'type': False,
+        'marker': True,
+        'direction': True,
+    }
 
     @classmethod
     def read(cls, rd, data: dict, where: str, name: str) -> PointLoad:

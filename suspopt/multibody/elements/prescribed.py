@@ -9,6 +9,7 @@ sign: the joint's reaction on the body is ``-λ`` (see
 :meth:`~suspopt.multibody.elements.base.JointGroup.reactions`). The run-time values come
 as a :class:`PrescribedMotion` per joint; none given means the reference pose at rest.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -35,8 +36,7 @@ class PrescribedJoint:
 
     @classmethod
     def read(cls, rd, data: dict, where: str, name: str) -> PrescribedJoint:
-        return cls(name=name, body=rd.body(data.get('body'), f'{where}.body',
-                                           allow_ground=False))
+        return cls(name=name, body=rd.body(data.get('body'), f'{where}.body', allow_ground=False))
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ with ``p_a``, ``p_b`` the joint point on each body (coincident at the reference 
 its Jacobian and ``γ_1 = -(C_1,q q̇)_q q̇`` are that function's; ``γ_2 = 0``. The
 multiplier λ_1 is the normal force between the bodies, λ_2 the torque they transmit.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,13 +32,22 @@ class PrismaticJoint:
     point: tuple[float, float]
     axis: tuple[float, float]
     type: ClassVar[str] = 'prismatic'
-    keys: ClassVar[dict[str, bool]] = {'name': True, 'type': True, 'bodies': True,
-                                       'point': True, 'axis': True}
+    keys: ClassVar[dict[str, bool]] = {
+        'name': True,
+        'type': True,
+        'bodies': True,
+        'point': True,
+        'axis': True,
+    }
 
     @classmethod
     def read(cls, rd, data: dict, where: str, name: str) -> PrismaticJoint:
-        return cls(name=name, bodies=rd.body_pair(data, where),
-                   point=rd.vec2(data, 'point', where), axis=rd.unit_axis(data, 'axis', where))
+        return cls(
+            name=name,
+            bodies=rd.body_pair(data, where),
+            point=rd.vec2(data, 'point', where),
+            axis=rd.unit_axis(data, 'axis', where),
+        )
 
 
 class PrismaticGroup(JointGroup):

@@ -6,6 +6,7 @@
 with ``u`` the joint point in body axes: the joint applies ``-λ`` on the first body and
 ``+λ`` on the second, both at the joint point.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -24,8 +25,7 @@ class RevoluteJoint:
     bodies: tuple[str, str]
     point: tuple[float, float]
     type: ClassVar[str] = 'revolute'
-    keys: ClassVar[dict[str, bool]] = {'name': True, 'type': False, 'bodies': True,
-                                       'point': True}
+    keys: ClassVar[dict[str, bool]] = {'name': True, 'type': False, 'bodies': True, 'point': True}
 
     @classmethod
     def read(cls, rd, data: dict, where: str, name: str) -> RevoluteJoint:

@@ -7,6 +7,7 @@ i.e. ``Q = -f (∂L/∂q)ᵀ`` with ``∂L/∂r_0 = -eᵀ``, ``∂L/∂φ_0 = -e
 ``∂L/∂φ_1 = eᵀ B_1 u_1``, and ``L̈ = L_q q̈ + eᵀ(A_0 u_0 ω_0² - A_1 u_1 ω_1²) +
 (|ḋ|² - (eᵀḋ)²) / L``. The free length ``L0`` defaults to the reference distance.
 """
+
 from __future__ import annotations
 
 import math
@@ -15,8 +16,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.multibody.elements.base import (ScalarSpringGroup, cross, dot, gather, perp,
-                                             read_spring_common, spring_spec_keys)
+from suspopt.multibody.elements.base import (
+    ScalarSpringGroup,
+    cross,
+    dot,
+    gather,
+    perp,
+    read_spring_common,
+    spring_spec_keys,
+)
 
 
 @dataclass(frozen=True)
@@ -39,13 +47,15 @@ class SpringDamper:
         if common['free_length'] is None and m0 in rd.markers and m1 in rd.markers:
             (x0, z0), (x1, z1) = rd.markers[m0][1], rd.markers[m1][1]
             if not math.hypot(x1 - x0, z1 - z0) > 0.0:
-                rd.err(f'{where}.free_length', 'the default (the reference distance of the '
-                       'two markers) is not > 0: the markers coincide')
+                rd.err(
+                    f'{where}.free_length',
+                    'the default (the reference distance of the '
+                    'two markers) is not > 0: the markers coincide',
+                )
         return cls(name=name, **common)
 
 
 class SpringDamperGroup(ScalarSpringGroup):
-
     def _geometry(self, qe):
         arm, p = self.ends(qe)
         d = p[:, :, 1] - p[:, :, 0]
@@ -59,9 +69,9 @@ class SpringDamperGroup(ScalarSpringGroup):
         arm, d, L, e = self._geometry(qe) if geometry is None else geometry
         G = np.empty(L.shape + (2, 3))
         G[:, :, 0, :2] = -e
-        G[:, :, 0, 2] = -cross(arm[:, :, 0], e)   # -eᵀ perp(A_0 u_0)
+        G[:, :, 0, 2] = -cross(arm[:, :, 0], e)  # -eᵀ perp(A_0 u_0)
         G[:, :, 1, :2] = e
-        G[:, :, 1, 2] = cross(arm[:, :, 1], e)    # eᵀ perp(A_1 u_1)
+        G[:, :, 1, 2] = cross(arm[:, :, 1], e)  # eᵀ perp(A_1 u_1)
         return L, G
 
     def quadratic(self, qe, qde, geometry=None):
@@ -70,8 +80,7 @@ class SpringDamperGroup(ScalarSpringGroup):
         w = vb[..., 2]
         v = vb[..., :2] + perp(arm) * w[..., None]
         dd = v[:, :, 1] - v[:, :, 0]
-        centripetal = (arm[:, :, 0] * w[:, :, 0, None] ** 2
-                       - arm[:, :, 1] * w[:, :, 1, None] ** 2)
+        centripetal = arm[:, :, 0] * w[:, :, 0, None] ** 2 - arm[:, :, 1] * w[:, :, 1, None] ** 2
         return dot(e, centripetal) + (dot(dd, dd) - dot(e, dd) ** 2) / L
 
     def directions(self, qe, geometry=None):
