@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import datetime
+import json
 import os
 import platform
 import statistics
 import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Iterable
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 
@@ -103,3 +107,45 @@ def timed_optimize(
     }
     out['total'] = out['setup'] + out['guess'] + out['solve']
     return out
+
+
+#: where every benchmark writes its measured figures (rendered into docs/performance.md by
+#: benchmarks/render_performance.py)
+RESULTS_DIR = Path(__file__).resolve().parent / 'results'
+
+
+def versions() -> dict[str, str]:
+    """Versions of suspopt and of the libraries whose speed the figures depend on."""
+    from importlib import metadata
+
+    out = {}
+    for dist in ('suspopt', 'openmdao', 'dymos', 'cyipopt-wheels', 'numpy', 'scipy', 'casadi'):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def write_result(name: str, title: str, markdown: str, data: Any = None) -> Path:
+    """Write ``benchmarks/results/<name>.json``: the benchmark's section of the performance
+    page (``markdown``: its tables and notes, rendered as measured) with the date, the
+    machine, the versions and the command that produced it, and optional raw ``data``.
+    Re-measuring is running the benchmark again; ``render_performance.py`` rebuilds the
+    page from these files."""
+    RESULTS_DIR.mkdir(exist_ok=True)
+    record = {
+        'benchmark': name,
+        'title': title,
+        'date': datetime.datetime.now().isoformat(timespec='seconds'),
+        'machine': machine(),
+        'versions': versions(),
+        'command': 'python ' + ' '.join([os.path.relpath(sys.argv[0])] + sys.argv[1:]),
+        'markdown': markdown,
+        'data': data,
+    }
+    path = RESULTS_DIR / f'{name}.json'
+    tmp = path.with_suffix('.json.tmp')
+    tmp.write_text(json.dumps(record, indent=2, default=float) + '\n')
+    os.replace(tmp, path)
+    return path
