@@ -76,7 +76,7 @@ def timed_optimize(
     coloring
     (zero when cached), solve (IPOPT, coloring excluded) and their total. ``totals``: the
     driver's total-derivative method (``'solves'``: one OpenMDAO linear solve per color)."""
-    from suspopt.study import initial_guess
+    from suspopt.studies.run import initial_guess
     from suspopt.transcription.problem import VehicleProblem
 
     t0 = time.perf_counter()

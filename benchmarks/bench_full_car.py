@@ -29,9 +29,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, timed_optimize  # noqa: E402
 
-from suspopt.config import StudyConfig, config_from_dict, full_car_defaults  # noqa: E402
-from suspopt.study import resolve_scales, run_study  # noqa: E402
-from suspopt.transcription.grid import auto_segments  # noqa: E402
+from suspopt.spec.load import config_from_dict, full_car_defaults  # noqa: E402
+from suspopt.spec.resolve import auto_segments  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
+from suspopt.studies.twostep import run_study  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
 
 
 def run(cfg, fidelity, scales, start):

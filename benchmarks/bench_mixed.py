@@ -27,13 +27,15 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, table, timed_optimize  # noqa: E402
 
-from suspopt.config import StudyConfig, config_from_dict  # noqa: E402
 from suspopt.multibody.components import (
     ChassisMountDynamicsComp,  # noqa: E402
     SuspensionDynamicsComp,
     SuspensionKinematicsComp,
 )
-from suspopt.study import optimize, resolve_scales  # noqa: E402
+from suspopt.spec.load import config_from_dict  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
+from suspopt.studies.run import optimize  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
 
 
 @contextmanager

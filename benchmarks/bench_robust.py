@@ -23,9 +23,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, timed_optimize  # noqa: E402
 
-from suspopt.config import load_config  # noqa: E402
-from suspopt.robust import single_scenario  # noqa: E402
-from suspopt.study import resolve_scales  # noqa: E402
+from suspopt.spec.load import load_config  # noqa: E402
+from suspopt.studies.robust import single_scenario  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -18,8 +18,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import fresh_cache, git_revision, machine, table  # noqa: E402
 
-from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.study import run_study  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
+from suspopt.studies.twostep import run_study  # noqa: E402
 
 
 def once(verify: bool) -> dict:

@@ -32,7 +32,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import machine  # noqa: E402
 
-from suspopt.sweep import load_sweep, noop_task, run_sweep, run_task  # noqa: E402
+from suspopt.sweep.runner import load_sweep, noop_task, run_sweep, run_task  # noqa: E402
 
 
 def _sweep_file(root: Path, n: int, segments: int) -> Path:

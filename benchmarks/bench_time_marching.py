@@ -84,8 +84,9 @@ def march(car: str, horizon: float | None) -> dict:
 
     import numpy as np
 
-    from suspopt.config import StudyConfig, full_car_defaults
-    from suspopt.timemarching import simulate
+    from suspopt.spec.load import full_car_defaults
+    from suspopt.spec.schema import StudyConfig
+    from suspopt.verification.timemarching import simulate
 
     cfg = StudyConfig() if car == 'half' else full_car_defaults()
     if horizon is not None:

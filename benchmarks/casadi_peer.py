@@ -75,11 +75,12 @@ import time
 import casadi as ca
 import numpy as np
 
+from suspopt.road import wheel_road_inputs
+
 # from suspopt only data: the road profile and the reference scales. Imported here, outside
 # every timer (suspopt.road imports OpenMDAO).
-from suspopt.config import StudyConfig
-from suspopt.road import wheel_road_inputs
-from suspopt.timemarching import reference_scales
+from suspopt.spec.schema import StudyConfig
+from suspopt.verification.timemarching import reference_scales
 
 # ---------------------------------------------------------------- problem data (SPEC §1-§5)
 A1, A2 = 1.271, -1.713  # axle positions a_i [m] (+ ahead of the CG)

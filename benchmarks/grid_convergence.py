@@ -29,10 +29,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import git_revision, machine  # noqa: E402
 
-from suspopt.config import StudyConfig, config_from_dict  # noqa: E402
-from suspopt.study import optimize, resolve_scales  # noqa: E402
-from suspopt.timemarching import simulate  # noqa: E402
+from suspopt.spec.load import config_from_dict  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
+from suspopt.studies.run import optimize  # noqa: E402
 from suspopt.transcription.problem import VehicleProblem  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
+from suspopt.verification.timemarching import simulate  # noqa: E402
 
 DESIGNS = {
     'initial': {'k_S1': 30000.0, 'k_S2': 30000.0, 'c_S1': 3000.0, 'c_S2': 3000.0},

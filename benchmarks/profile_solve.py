@@ -21,8 +21,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import git_revision, machine, timed_optimize  # noqa: E402
 
-from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.study import optimize, resolve_scales  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
+from suspopt.studies.run import optimize  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
 
 
 def main() -> None:

@@ -9,8 +9,8 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 
 import pytest  # noqa: E402
 
-from suspopt.config import StudyConfig  # noqa: E402
-from suspopt.study import resolve_scales  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
 
 
 @pytest.fixture(scope='session', autouse=True)

@@ -9,8 +9,8 @@ import numpy as np
 from scipy.integrate import trapezoid
 from scipy.signal import lsim
 
-from suspopt.config import StudyConfig
 from suspopt.road import wheel_road_inputs
+from suspopt.spec.schema import StudyConfig
 
 
 def half_car_matrices(cfg: StudyConfig, x: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:

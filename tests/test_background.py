@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from suspopt.background import Background, BackgroundError, forking_available
+from suspopt.verification.background import Background, BackgroundError, forking_available
 
 pytestmark = pytest.mark.skipif(not forking_available(), reason='needs fork (Linux)')
 
@@ -75,8 +75,9 @@ def test_leaving_stops_running_children():
 
 def test_a_time_marching_check_in_a_child_equals_the_one_here():
     """What a study's background verification returns is what the check returns here."""
-    from suspopt.config import StudyConfig
-    from suspopt.study import resolve_scales, time_marching_check
+    from suspopt.spec.schema import StudyConfig
+    from suspopt.verification.scales import resolve_scales
+    from suspopt.verification.verify import time_marching_check
 
     cfg = StudyConfig()
     scales = resolve_scales(cfg)

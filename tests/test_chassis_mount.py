@@ -16,10 +16,10 @@ import numpy as np
 import openmdao.api as om
 import pytest
 
-from suspopt.config import config_from_dict, full_car_defaults
 from suspopt.models import equations as eq
 from suspopt.multibody.suspension import SuspensionModule
-from suspopt.timemarching import VehicleRHS
+from suspopt.spec.load import config_from_dict, full_car_defaults
+from suspopt.verification.timemarching import VehicleRHS
 
 #: double wishbone of SPEC §3 / paper Table 2, by hand: arm length (pivot to pivot), the
 #: arm CG's and the spring point's distance from the frame pivot
@@ -315,8 +315,8 @@ X0 = {'k_S1': 32000.0, 'k_S2': 21000.0, 'c_S1': 2600.0, 'c_S2': 2200.0}
 def chassis_problem(cfg, scales):
     """The half car with chassis-mounted modules on a 4 × 3 grid, run at the half
     car's time-marching trajectory (a non-converged point: every node differs)."""
-    from suspopt.timemarching import simulate
     from suspopt.transcription.problem import VehicleProblem
+    from suspopt.verification.timemarching import simulate
 
     small = with_mount(
         cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=4, order=3)),
@@ -433,8 +433,8 @@ def test_frame_follows_the_chassis_on_both_sides_of_a_rolling_car():
 def full_chassis_problem(scales):
     """The default full car (bars) with chassis-mounted modules on a 3-segment grid, run at
     a state guess of its half-car-like time marching (non-converged)."""
-    from suspopt.timemarching import simulate
     from suspopt.transcription.problem import VehicleProblem
+    from suspopt.verification.timemarching import simulate
 
     full = full_car_defaults()
     full = with_mount(
@@ -497,8 +497,8 @@ def test_reduced_gradient_matches_fd_of_the_converged_coupled_model(cfg, scales)
     against central differences of converged collocation solutions (to 1e-13): 1e-5."""
     from test_mixed_fidelity import _reduced_gradient
 
-    from suspopt.timemarching import simulate
     from suspopt.transcription.problem import VehicleProblem
+    from suspopt.verification.timemarching import simulate
 
     base = with_mount(
         cfg.replace(
@@ -534,7 +534,7 @@ def test_reduced_gradient_matches_fd_of_the_converged_coupled_model(cfg, scales)
 def test_collocation_matches_time_marching_on_the_default_grid(cfg, scales):
     """The chassis-mounted model on the default 80 × 5 grid at the initial design: every
     J_k within 0.1 % of time marching; the multibody constraints hold (1e-10 m)."""
-    from suspopt.study import evaluate
+    from suspopt.studies.run import evaluate
 
     res = evaluate(with_mount(cfg, 'chassis'), 'mixed', scales=scales)
     v = res['verification']
@@ -555,7 +555,7 @@ def test_coupling_command_table_and_report(tmp_path, capsys):
     consistent one give different optima; `suspopt report` re-renders the table."""
     import json
 
-    from suspopt.cli import main
+    from suspopt.cli.main import main
 
     study = tmp_path / 'short.toml'
     study.write_text('[maneuver]\nhorizon = 1.0\n[transcription]\nsegments = 16\n')

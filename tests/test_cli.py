@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from suspopt.cli import main
+from suspopt.cli.main import main
 
 pytestmark = pytest.mark.slow
 KEYS = {
@@ -260,8 +260,8 @@ def test_start_moves_ipopt_not_the_normalization(tmp_path, capsys):
     """`--start` only says where IPOPT starts: the reference scales stay the J_k of the
     study's initial design (SPEC §5), so every start minimizes the same f and finds the
     same optimum."""
-    from suspopt.config import StudyConfig
-    from suspopt.study import resolve_scales
+    from suspopt.spec.schema import StudyConfig
+    from suspopt.verification.scales import resolve_scales
 
     results = []
     for name, start in (('a', []), ('b', ['--start', '45000,15000,4000,1500'])):

@@ -17,11 +17,12 @@ import shutil
 import numpy as np
 import pytest
 
-from suspopt import compare, compare_report
-from suspopt.cli import main
-from suspopt.compare_report import compare_markdown
+import suspopt.output.compare_report as compare_report
+import suspopt.studies.compare as compare
+from suspopt.cli.main import main
 from suspopt.errors import ModelError
-from suspopt.results import read_json
+from suspopt.output.compare_report import compare_markdown
+from suspopt.output.rundir import read_json
 
 TINY = """
 [maneuver]
@@ -298,7 +299,7 @@ def test_topology_labels_and_front_rear_pairs(tmp_path):
 def test_compare_full_car_topologies_per_axle(tmp_path, capsys, monkeypatch):
     """The full car (six design variables, anti-roll bars) with a MacPherson front and
     double-wishbone rear against double wishbones all round (stand-in solves)."""
-    from suspopt.config_file import default_config_toml
+    from suspopt.spec.template import default_config_toml
 
     path = tmp_path / 'full.toml'
     text = default_config_toml('full_car')
@@ -336,9 +337,10 @@ def test_full_car_macpherson_front_double_wishbone_rear_verifies():
     MacPherson front, the paper's double wishbone rear (both set here: the defaults are
     the BMW's own corners), on its ISO 8608 road (short drive, automatic grid), evaluated
     by collocation and verified by time marching."""
-    from suspopt.config import config_from_dict, full_car_defaults
-    from suspopt.study import evaluate, resolve_scales
+    from suspopt.spec.load import config_from_dict, full_car_defaults
+    from suspopt.studies.run import evaluate
     from suspopt.transcription.problem import multibody_modules
+    from suspopt.verification.scales import resolve_scales
 
     d = full_car_defaults().to_dict()
     d['vehicle']['front']['mechanism'] = 'macpherson'

@@ -10,10 +10,11 @@ import tomllib
 import numpy as np
 import pytest
 
-from suspopt.cli import main
-from suspopt.config import StudyConfig, config_from_dict, load_config
-from suspopt.config_file import default_config_toml
+from suspopt.cli.main import main
 from suspopt.errors import ConfigError
+from suspopt.spec.load import config_from_dict, load_config
+from suspopt.spec.schema import StudyConfig
+from suspopt.spec.template import default_config_toml
 
 
 def _write(tmp_path, text: str, name: str = 'study.toml'):
@@ -231,7 +232,7 @@ def test_bad_command_line_values(capsys):
 
 def test_csv_road_reproduces_two_bumps(tmp_path):
     """A measured-road CSV sampled from the built-in two bumps gives the same objective."""
-    from suspopt.study import evaluate
+    from suspopt.studies.run import evaluate
 
     road = StudyConfig().road_profile()
     s = np.linspace(0.0, 60.0, 60001)

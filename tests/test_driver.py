@@ -111,7 +111,7 @@ def test_pinned_variable_is_held():
 
 def test_write_json_is_atomic(tmp_path):
     """A failure while writing leaves the previous file intact and no temporary files."""
-    from suspopt.results import write_json
+    from suspopt.output.rundir import write_json
 
     path = tmp_path / 'result.json'
     write_json(path, {'a': 1})

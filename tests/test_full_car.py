@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspopt.config import config_from_dict, full_car_defaults
-from suspopt.study import evaluate, resolve_scales
-from suspopt.timemarching import simulate
+from suspopt.spec.load import config_from_dict, full_car_defaults
+from suspopt.studies.run import evaluate
+from suspopt.verification.scales import resolve_scales
+from suspopt.verification.timemarching import simulate
 
 HALF_DESIGN = {'k_S1': 42000.0, 'k_S2': 21000.0, 'c_S1': 2800.0, 'c_S2': 2000.0}
 
@@ -239,7 +240,7 @@ def test_bad_full_car_input_exits_2_naming_the_key(tmp_path, capsys, over, key, 
 
 
 def test_anti_roll_bar_or_two_tracks_on_a_half_car_exit_2(tmp_path, capsys):
-    from suspopt.config import StudyConfig
+    from suspopt.spec.schema import StudyConfig
 
     half = StudyConfig().to_dict()
     _bad(
@@ -293,8 +294,8 @@ def _merge_deep(base: dict, over: dict) -> dict:
 
 def _bad(tmp_path, capsys, data: dict, key: str, words: str) -> None:
     """The study file ``data`` is refused by the CLI with exit 2, one line naming ``key``."""
-    from suspopt.cli import main
-    from suspopt.config_file import toml_value
+    from suspopt.cli.main import main
+    from suspopt.spec.template import toml_value
 
     path = tmp_path / 'bad.toml'
     path.write_text(''.join(f'{k} = {toml_value(v)}\n' for k, v in data.items()))

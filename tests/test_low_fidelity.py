@@ -10,9 +10,9 @@ import pytest
 from half_car_by_hand import objective_terms_by_hand  # noqa: E402 (tests/ is on the path)
 from scipy.optimize import minimize
 
-from suspopt.study import evaluate, optimize
-from suspopt.timemarching import simulate
+from suspopt.studies.run import evaluate, optimize
 from suspopt.transcription.problem import VehicleProblem
+from suspopt.verification.timemarching import simulate
 
 pytestmark = pytest.mark.slow
 

@@ -7,9 +7,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from suspopt.study import evaluate, objective_value, optimize
-from suspopt.timemarching import simulate
+from suspopt.studies.run import evaluate, optimize
 from suspopt.transcription.problem import VehicleProblem
+from suspopt.verification.timemarching import simulate
+from suspopt.verification.verify import objective_value
 
 pytestmark = pytest.mark.slow
 
@@ -215,7 +216,7 @@ def test_the_recorder_keeps_no_multibody_module_in_its_metadata(cfg, scales, tmp
     and tables; nothing reads them back), and the recorded trajectory is still there."""
     import openmdao.api as om
 
-    from suspopt.results import read_trajectory
+    from suspopt.output.rundir import read_trajectory
 
     small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=8))
     path = tmp_path / 'mixed.sql'

@@ -52,11 +52,11 @@ from test_multibody_exudyn import (
     solve_exudyn,  # noqa: E402
 )
 
-from suspopt.config import full_car_defaults
 from suspopt.multibody.kinematics import kinematic_curves, reference_wheel_rate
 from suspopt.multibody.mechanism import Marker, load_mechanism
 from suspopt.multibody.simulate import simulate_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
+from suspopt.spec.load import full_car_defaults
 
 TYRE_RADIUS = 0.3186  # BMW_E90_TMsimpleTire*.cpp: unloaded radius
 TYRE = (11.2, 0.495988)  # BMW_E90_TMsimpleTireFront.cpp: mass, diametral inertia
@@ -743,8 +743,8 @@ def test_default_full_car_with_the_bmw_corners_verifies():
     marching."""
     import time
 
-    from suspopt.config import config_from_dict
-    from suspopt.study import evaluate
+    from suspopt.spec.load import config_from_dict
+    from suspopt.studies.run import evaluate
     from suspopt.transcription.problem import multibody_modules
 
     d = full_car_defaults().to_dict()

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspopt.cli import main
+from suspopt.cli.main import main
 from suspopt.multibody.kinematics import COLUMNS, curves_table, kinematic_curves, plot_curves
 from suspopt.multibody.mechanism import load_mechanism, mechanism_path
 from suspopt.multibody.solver import PlanarMultibodySolver

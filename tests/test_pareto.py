@@ -8,9 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from suspopt.cli import main
-from suspopt.pareto import comfort_and_road_holding, comfort_share_weights, run_pareto
-from suspopt.study import optimize
+from suspopt.cli.main import main
+from suspopt.studies.pareto import comfort_and_road_holding, comfort_share_weights, run_pareto
+from suspopt.studies.run import optimize
 
 pytestmark = pytest.mark.slow
 POINTS = 5

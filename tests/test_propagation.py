@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from test_sparsity import _cases, _problem
 
-from suspopt.config import config_from_dict
 from suspopt.driver import sparsity
 from suspopt.driver.propagation import PropagatedTotals, make_totals
 from suspopt.driver.totals import ColoredTotals
+from suspopt.spec.load import config_from_dict
 
 CASES = [
     'half car, low',

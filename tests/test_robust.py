@@ -9,10 +9,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from suspopt.config import config_from_dict
 from suspopt.driver import sparsity
-from suspopt.study import combine, evaluate, optimize, resolve_scales
+from suspopt.spec.load import config_from_dict
+from suspopt.studies.run import evaluate, optimize
 from suspopt.transcription.problem import VehicleProblem
+from suspopt.verification.scales import resolve_scales
+from suspopt.verification.verify import combine
 
 SEGMENTS = 20
 
@@ -190,8 +192,8 @@ def test_robust_command_shows_what_the_robust_design_buys(tmp_path, capsys):
     scenario by time marching. Each scenario's own optimum is (to the collocation's
     tolerance) the best on that scenario, the robust optimum the best on the sum; the files
     are complete and the report renders them; one scenario is not a robust study."""
-    from suspopt.cli import main
-    from suspopt.results import read_json
+    from suspopt.cli.main import main
+    from suspopt.output.rundir import read_json
 
     study = tmp_path / 'robust.toml'
     study.write_text(

@@ -9,9 +9,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from suspopt.config import config_from_dict, full_car_defaults
 from suspopt.driver import structure
 from suspopt.driver.sparsity import _dense_sparsity, color_columns, structural_sparsity
+from suspopt.spec.load import config_from_dict, full_car_defaults
 from suspopt.transcription.problem import VehicleProblem
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from suspopt.errors import ConfigError
-from suspopt.sweep import DirectoryLock, distinct_optima, load_sweep, run_sweep, run_task
+from suspopt.sweep.runner import DirectoryLock, distinct_optima, load_sweep, run_sweep, run_task
 
 DASK = str(Path(sys.executable).parent / 'dask')
 STUDY = """
@@ -50,7 +50,7 @@ def _files(tmp_path: Path, sweep: str, name: str = 'sweep.toml') -> Path:
 
 
 def _cli(args, capsys):
-    from suspopt.cli import main  # here: the cache test's spawned writers import this module
+    from suspopt.cli.main import main  # here: the cache test's spawned writers import this module
 
     code = main(args)
     out = capsys.readouterr()
@@ -65,8 +65,8 @@ def _records(out: Path) -> dict[str, dict]:
 @pytest.mark.slow
 def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path, capsys, cluster):
     """On the external cluster (--scheduler); then, extended, on a local one (Ctrl-C)."""
-    from suspopt.config import config_from_dict, load_config
-    from suspopt.study import optimize
+    from suspopt.spec.load import config_from_dict, load_config
+    from suspopt.studies.run import optimize
 
     address, client = cluster
     path = _files(tmp_path, PRODUCT)
@@ -160,7 +160,7 @@ def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path, capsys
 def _setup_in_forked_child(queue) -> None:
     from threadpoolctl import threadpool_info
 
-    from suspopt.sweep import dask_setup
+    from suspopt.sweep.runner import dask_setup
 
     dask_setup(None)
     queue.put(
@@ -177,7 +177,7 @@ def test_worker_setup_drops_the_clients_sigterm_and_limits_blas_threads():
     in the client) and its BLAS pools: the preload resets one, limits the other."""
     from threadpoolctl import threadpool_limits
 
-    from suspopt.sweep import _sweep_sigterm
+    from suspopt.sweep.runner import _sweep_sigterm
 
     ctx = mp.get_context('fork')
     queue = ctx.Queue()
@@ -333,7 +333,7 @@ def test_a_failing_task_is_a_record_with_its_traceback(tmp_path):
 def _dies_at_speed_13(payload: dict) -> dict:
     """A task function whose worker process dies when its task has speed 13 (a no-op
     task otherwise): a crash in native code, as the local cluster sees it."""
-    from suspopt.sweep import noop_task
+    from suspopt.sweep.runner import noop_task
 
     time.sleep(0.2)
     if payload['config']['maneuver']['speed'] == 13.0:
@@ -539,7 +539,7 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
 def test_the_scheduler_counts_a_tasks_dead_workers(cluster):
     """A worker killed before a task could say it started still counts as an attempt:
     the record's count comes from the scheduler's own (``_deaths``)."""
-    from suspopt.sweep import _deaths
+    from suspopt.sweep.runner import _deaths
 
     address, client = cluster
     fut = client.submit(time.sleep, 4, pure=False)  # short: a running rerun holds up
@@ -564,7 +564,7 @@ def _store_many(key: str, barrier, rounds: int, cache: str, seed: int) -> None:
     """Store ``key`` ``rounds`` times, each time at the same moment as the other writer
     (the barrier), and check the file right after: always a whole coloring."""
     os.environ['SUSPOPT_CACHE_DIR'] = cache
-    from suspopt import cache as cc
+    import suspopt.transcription.coloring_cache as cc
 
     coloring = _coloring(seed)
     for _ in range(rounds):
@@ -590,7 +590,7 @@ def _coloring(seed: int):
 def test_coloring_cache_concurrent_stores_are_atomic(tmp_path):
     """Two processes store the same key at the same moment, many times, and a third
     reads it all the while: it is always a whole, loadable coloring, never a partial one."""
-    from suspopt import cache as cc
+    import suspopt.transcription.coloring_cache as cc
 
     ctx = mp.get_context('spawn')
     barrier = ctx.Barrier(2)

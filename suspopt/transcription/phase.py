@@ -5,9 +5,10 @@ from __future__ import annotations
 import dymos as dm
 import numpy as np
 
-from suspopt.config import DESIGN_UNITS, Scenario, StudyConfig, design_kind
+from suspopt.models.design import DESIGN_UNITS, design_kind
 from suspopt.models.vehicle import LowFidelityODE, MixedFidelityODE, VehicleSpec
 from suspopt.road import road_tracks
+from suspopt.spec.schema import Scenario, StudyConfig
 
 FIDELITIES = ('low', 'mixed')
 

@@ -32,17 +32,18 @@ import dymos as dm
 import numpy as np
 import openmdao.api as om
 
-from suspopt import cache
-from suspopt.config import DESIGN_UNITS, StudyConfig, design_kind
+import suspopt.transcription.coloring_cache as cache
 from suspopt.driver import IpoptDriver, IterationInfo
 from suspopt.errors import ModelError
+from suspopt.models.design import DESIGN_UNITS, design_kind
 from suspopt.models.objective import (
     ObjectiveQuadratureComp,
     ScenarioObjectiveComp,
     WeightedObjectiveComp,
     WorstCaseGapComp,
 )
-from suspopt.trajectory import Trajectory
+from suspopt.records.trajectory import Trajectory
+from suspopt.spec.schema import StudyConfig
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
 from suspopt.transcription.phase import (
     FIDELITIES,

@@ -28,7 +28,8 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError
-from suspopt.figures import (
+from suspopt.models.objective import term_units
+from suspopt.output.figures import (
     corner_labels,
     panel_figure,
     panel_specs,
@@ -37,8 +38,7 @@ from suspopt.figures import (
     road_figure,
     save_figure,
 )
-from suspopt.models.objective import term_units
-from suspopt.results import (
+from suspopt.output.rundir import (
     COUPLING_DESIGN_LABELS,
     COUPLING_DESIGNS,
     COUPLING_MODEL_LABELS,
@@ -619,7 +619,7 @@ def render(out_dir: str | Path) -> list[Path]:
         raise ConfigError(f'{out}: not a directory')
     try:
         if not (out / 'study.json').exists() and (out / 'compare.json').exists():
-            from suspopt.compare_report import render_compare  # a topology study
+            from suspopt.output.compare_report import render_compare  # a topology study
 
             return render_compare(out)
         if not (out / 'study.json').exists() and (out / 'pareto.json').exists():
@@ -781,7 +781,7 @@ def draw_figures(jobs: list[Callable[[], Path]]) -> list[Path]:
     """Run the figure-drawing ``jobs`` side by side, one background process per core
     (:mod:`suspopt.background`; here, one after another, on one core or where that is not
     available); their paths, in order."""
-    from suspopt.background import Background, usable_cores
+    from suspopt.verification.background import Background, usable_cores
 
     cores = usable_cores()
     with Background(jobs=cores if len(jobs) > 1 and cores > 1 else 0) as bg:

@@ -33,8 +33,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from suspopt.config import StudyConfig, config_from_dict, load_config
 from suspopt.errors import ConfigError, NotVerified, SuspoptError
+from suspopt.spec.load import config_from_dict, load_config
+from suspopt.spec.schema import StudyConfig
 
 EPILOG = (
     'Exit codes: 0 ok (verified), 1 model/optimization failure, 2 bad input, '
@@ -252,8 +253,8 @@ def _fail_message(res: dict[str, Any]) -> None:
 
 def cmd_optimize(args: argparse.Namespace) -> int:
     config = _config(args)
-    from suspopt.results import RunDirectory
-    from suspopt.study import optimize
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.run import optimize
 
     start = _start(args, config)
     with RunDirectory(args.out, args.overwrite) as out:
@@ -273,7 +274,7 @@ def cmd_optimize(args: argparse.Namespace) -> int:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     config = _config(args)
-    from suspopt.study import evaluate
+    from suspopt.studies.run import evaluate
 
     design = parse_design(args.design, '--design', config) if args.design else None
     res = evaluate(config, args.fidelity, design, method=args.method, verify=not args.no_verify)
@@ -294,8 +295,9 @@ def _jobs(text: str) -> int:
 
 def cmd_study(args: argparse.Namespace) -> int:
     config = _config(args)
-    from suspopt.results import RunDirectory
-    from suspopt.study import StepFailed, run_study
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.run import StepFailed
+    from suspopt.studies.twostep import run_study
 
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
@@ -322,9 +324,9 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 def cmd_coupling(args: argparse.Namespace) -> int:
     config = _config(args)
-    from suspopt.coupling import run_coupling
-    from suspopt.results import RunDirectory
-    from suspopt.study import StepFailed
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.coupling import run_coupling
+    from suspopt.studies.run import StepFailed
 
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
@@ -352,8 +354,8 @@ def cmd_pareto(args: argparse.Namespace) -> int:
     if args.points < 2:
         raise ConfigError(f'--points: need at least 2, got {args.points}')
     config = _config(args)
-    from suspopt.pareto import run_pareto
-    from suspopt.results import RunDirectory
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.pareto import run_pareto
 
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
@@ -399,9 +401,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     """The topology study (suspopt.compare): every topology's mixed-fidelity optimum, the
     cross table of every optimum in every model, kinematic curves."""
     config = _config(args)
-    from suspopt.compare import exit_code, parse_topologies, run_compare, topology_config
-    from suspopt.results import RunDirectory
-    from suspopt.study import StepFailed
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.compare import exit_code, parse_topologies, run_compare, topology_config
+    from suspopt.studies.run import StepFailed
 
     for front, rear in parse_topologies(args.mechanisms):  # bad input before any work
         topology_config(config, front, rear)
@@ -438,9 +440,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_robust(args: argparse.Namespace) -> int:
     config = _config(args)
-    from suspopt import report
-    from suspopt.results import RunDirectory
-    from suspopt.robust import run_robust
+    import suspopt.output.report as report
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.robust import run_robust
 
     with RunDirectory(args.out, args.overwrite) as out:
         progress, log = _printer(args.quiet, config.design_names())
@@ -478,7 +480,7 @@ def cmd_robust(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Many optimizations or studies in parallel on Dask (see suspopt.sweep)."""
-    from suspopt.sweep import run_sweep
+    from suspopt.sweep.runner import run_sweep
 
     log = (lambda msg: None) if args.quiet else None
     outcome = run_sweep(
@@ -494,7 +496,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_init(args: argparse.Namespace) -> int:
-    from suspopt.config_file import default_config_toml
+    from suspopt.spec.template import default_config_toml
 
     path = Path(args.file)
     if path.exists() and not args.overwrite:
@@ -511,7 +513,7 @@ def cmd_init(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from suspopt.report import render
+    from suspopt.output.report import render
 
     written = render(args.dir)
     print((Path(args.dir) / 'table.md').read_text())

@@ -115,13 +115,14 @@ def suspopt_call(action: str, **kw: Any) -> Any:
     canonical plain dict (raises ConfigError); ``optimize`` / ``study`` (data, out_dir,
     fidelity, start / verify) → the result dictionary.
     """
-    from suspopt.config import config_from_dict, load_config
+    from suspopt.spec.load import config_from_dict, load_config
 
     if action == 'load':
         return load_config(kw['path']).to_dict()
     if action == 'validate':
         return config_from_dict(kw['data'], base_dir=kw.get('base_dir')).to_dict()
-    from suspopt.study import optimize, run_study
+    from suspopt.studies.run import optimize
+    from suspopt.studies.twostep import run_study
 
     config = config_from_dict(kw['data'])
     if action == 'optimize':
@@ -688,13 +689,13 @@ def dask_setup(worker: Any) -> None:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1)
-    import suspopt.study  # noqa: F401
+    import suspopt.studies.run  # noqa: F401
 
 
 # ================================================================ output directory
 def atomic_write(path: Path, text: str) -> None:
     """Write a text file atomically (:func:`suspopt.results.atomic_path`)."""
-    from suspopt.results import atomic_path
+    from suspopt.output.rundir import atomic_path
 
     with atomic_path(path) as tmp, open(tmp, 'w', newline='') as fh:
         fh.write(text)
@@ -938,7 +939,7 @@ def write_figures(out: Path, sweep: Sweep, records: dict[str, dict[str, Any]]) -
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from suspopt.figures import save_figure
+    from suspopt.output.figures import save_figure
 
     rows = [(t, summary_row(t, records.get(t.name))) for t in sweep.tasks]
     rows = [(t, r) for t, r in rows if r['state'] == 'done' and r['objective'] is not None]
@@ -1218,7 +1219,7 @@ def _start_cluster(
         'distributed.admin.system-monitor.interval': '5s',
     }
     if worker_start == 'fork':
-        import suspopt.study  # noqa: F401  (inherited by the forked workers)
+        import suspopt.studies.run  # noqa: F401  (inherited by the forked workers)
     settings['distributed.worker.multiprocessing-method'] = worker_start
     with dask.config.set(settings):
         if worker_start == 'fork':  # the children's garbage collector leaves what this

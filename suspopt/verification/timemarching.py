@@ -20,13 +20,13 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from suspopt.config import ConfigError, Scenario, StudyConfig
-from suspopt.errors import ModelError
+from suspopt.errors import ConfigError, ModelError
 from suspopt.models import equations as eq
 from suspopt.models.design import corner_of_design
 from suspopt.multibody.suspension import RESPONSE
+from suspopt.records.trajectory import Trajectory
 from suspopt.road import road_tracks
-from suspopt.trajectory import Trajectory
+from suspopt.spec.schema import Scenario, StudyConfig
 from suspopt.transcription.problem import Scales, multibody_modules
 
 

@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from suspopt.results import atomic_path, resolve_inputs
-from suspopt.trajectory import Trajectory
+from suspopt.output.rundir import atomic_path, resolve_inputs
+from suspopt.records.trajectory import Trajectory
 
 CHASSIS = (
     ('zdd_C', r'$\ddot z_C$ [m/s$^2$]', 'chassis heave acceleration'),

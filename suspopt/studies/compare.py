@@ -37,20 +37,14 @@ from typing import Any
 
 import numpy as np
 
-from suspopt.config import StudyConfig, config_from_dict
 from suspopt.errors import ConfigError, ModelError, RunError
-from suspopt.results import RunDirectory, write_json
-from suspopt.study import (
-    VERIFY_TOLERANCE,
-    Interrupted,
-    Progress,
-    StepFailed,
-    evaluate,
-    optimize,
-    resolve_scales,
-    verified,
-)
+from suspopt.output.rundir import RunDirectory, write_json
+from suspopt.spec.load import config_from_dict
+from suspopt.spec.schema import StudyConfig
+from suspopt.studies.run import Interrupted, Progress, StepFailed, evaluate, optimize
 from suspopt.transcription.problem import VehicleProblem
+from suspopt.verification.scales import resolve_scales
+from suspopt.verification.verify import VERIFY_TOLERANCE, verified
 
 #: the shipped topologies, in the order the paper names them (and the SLA variation)
 DEFAULT_MECHANISMS = ('double_wishbone', 'sla_double_wishbone', 'macpherson')
@@ -248,7 +242,7 @@ def run_compare(
     and time marching disagree (None with ``verify=False``). Raises
     :class:`~suspopt.study.StepFailed` if the low-fidelity optimization fails and
     KeyboardInterrupt (after saving, ``interrupted: true``) on an interrupt."""
-    from suspopt import compare_report  # matplotlib only when figures are drawn
+    import suspopt.output.compare_report as compare_report  # matplotlib only when figures are drawn
 
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

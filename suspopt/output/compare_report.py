@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from suspopt.figures import corner_labels, plot_set, road_figure, save_figure
 from suspopt.models.objective import term_units
-from suspopt.results import read_json, read_trajectory, write_text
+from suspopt.output.figures import corner_labels, plot_set, road_figure, save_figure
+from suspopt.output.rundir import read_json, read_trajectory, write_text
 
 COLORS = (
     'tab:red',

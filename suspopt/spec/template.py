@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from suspopt.config import StudyConfig, full_car_defaults
+from suspopt.spec.load import full_car_defaults
+from suspopt.spec.schema import StudyConfig
 
 
 def toml_value(v: Any) -> str:

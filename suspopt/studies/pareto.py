@@ -22,10 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from suspopt.config import StudyConfig
-from suspopt.results import RunDirectory, keep_inputs, write_json
-from suspopt.study import Interrupted, Progress, evaluate, optimize, resolve_scales
+from suspopt.output.rundir import RunDirectory, keep_inputs, write_json
+from suspopt.spec.schema import StudyConfig
+from suspopt.studies.run import Interrupted, Progress, evaluate, optimize
 from suspopt.transcription.problem import VehicleProblem
+from suspopt.verification.scales import resolve_scales
 
 
 def _split(terms) -> tuple[list[str], list[str]]:
@@ -95,7 +96,7 @@ def run_pareto(
     sweep goes on from the last converged point. Interrupted (Ctrl-C, SIGTERM), it stops
     with ``complete: false``, keeping the point being solved only if IPOPT had converged.
     Returns the front."""
-    from suspopt import report  # matplotlib only when figures are drawn
+    import suspopt.output.report as report  # matplotlib only when figures are drawn
 
     if points < 2:
         raise ValueError(f'points must be >= 2, got {points}')

@@ -23,17 +23,16 @@ from pathlib import Path
 import dymos
 import openmdao
 
-from suspopt.config import StudyConfig
 from suspopt.driver.sparsity import Coloring
+from suspopt.spec.schema import StudyConfig
 
 _MODEL_SOURCES = (
     'models',
     'multibody/components.py',
     'multibody/suspension.py',
     'transcription',
-    'road.py',
+    'road',
     'driver',
-    'cache.py',
 )
 
 
@@ -44,7 +43,7 @@ def cache_dir() -> Path:
 
 
 def _source_digest() -> str:
-    pkg = Path(__file__).parent
+    pkg = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for entry in _MODEL_SOURCES:
         path = pkg / entry

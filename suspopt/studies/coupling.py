@@ -19,16 +19,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from suspopt.config import StudyConfig
-from suspopt.results import (
+from suspopt.output.rundir import (
     COUPLING_DESIGN_LABELS,
     COUPLING_DESIGNS,
     COUPLING_MODEL_LABELS,
     RunDirectory,
     write_json,
 )
-from suspopt.study import Progress, StepFailed, evaluate, optimize, resolve_scales, verified
+from suspopt.spec.schema import StudyConfig
+from suspopt.studies.run import Progress, StepFailed, evaluate, optimize
 from suspopt.transcription.problem import VehicleProblem
+from suspopt.verification.scales import resolve_scales
+from suspopt.verification.verify import verified
 
 #: the three models: (fidelity, mount)
 MODELS = {'low': ('low', 'ground'), 'ground': ('mixed', 'ground'), 'chassis': ('mixed', 'chassis')}
@@ -59,7 +61,7 @@ def run_coupling(
     own model; both multibody optimizations start from the low-fidelity optimum. Returns
     the ``coupling.json`` dictionary; a step whose IPOPT does not converge raises
     :class:`~suspopt.study.StepFailed` after writing what was done."""
-    from suspopt import report
+    import suspopt.output.report as report
 
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
     say = log or (lambda msg: None)

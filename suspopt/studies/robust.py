@@ -20,10 +20,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from suspopt.config import StudyConfig
 from suspopt.errors import ConfigError
-from suspopt.results import RunDirectory, write_json
-from suspopt.study import Progress, combine, optimize, resolve_scales, time_marching_check, verified
+from suspopt.output.rundir import RunDirectory, write_json
+from suspopt.spec.schema import StudyConfig
+from suspopt.studies.run import Progress, optimize
+from suspopt.verification.scales import resolve_scales
+from suspopt.verification.verify import combine, time_marching_check, verified
 
 
 def single_scenario(config: StudyConfig, index: int) -> StudyConfig:

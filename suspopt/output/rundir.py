@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError, RunError
-from suspopt.trajectory import Trajectory
+from suspopt.records.trajectory import Trajectory
 
 #: files and folders a run may write into its directory (cleared by ``--overwrite``)
 RUN_OUTPUTS = (

@@ -1,0 +1,1 @@
+"""Typed records of what suspopt computes: trajectories, solves, verifications, studies."""

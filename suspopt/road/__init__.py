@@ -1,0 +1,41 @@
+"""Road profiles: the road height under every wheel (``docs/model.md``, "Roads")."""
+
+from suspopt.road.profiles import (
+    COHERENCE_MODELS,
+    CSVRoad,
+    CosineBumps,
+    ISO8608Road,
+    ISO8608_CLASSES,
+    MAX_FEATURE_HEIGHT,
+    PROFILES,
+    RoadProfile,
+    SingleBump,
+    SmoothStep,
+    TWO_TRACKS,
+    make_road,
+    profile_fields,
+    read_road_csv,
+    road_tracks,
+    track_coherence,
+    wheel_road_inputs,
+)
+
+__all__ = [
+    'COHERENCE_MODELS',
+    'CSVRoad',
+    'CosineBumps',
+    'ISO8608Road',
+    'ISO8608_CLASSES',
+    'MAX_FEATURE_HEIGHT',
+    'PROFILES',
+    'RoadProfile',
+    'SingleBump',
+    'SmoothStep',
+    'TWO_TRACKS',
+    'make_road',
+    'profile_fields',
+    'read_road_csv',
+    'road_tracks',
+    'track_coherence',
+    'wheel_road_inputs',
+]

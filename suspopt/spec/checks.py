@@ -1,0 +1,391 @@
+"""The checks across keys of a study description, run once every value is read: the car's
+geometry, the design box, the objective, the roads, the mechanisms (each loads and stands:
+a positive wheel rate over its design range), the grid and the NLP's size. Each problem is
+one line naming its key."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from suspopt.errors import ConfigError
+from suspopt.models.design import DESIGN_UNITS, design_kind
+from suspopt.road import PROFILES, TWO_TRACKS, CSVRoad, make_road, profile_fields
+from suspopt.spec.schema import (
+    AGGREGATES,
+    DESIGN_LIMITS,
+    HORIZON_RANGE,
+    MAX_NLP_VARIABLES,
+    MODELS,
+    MOUNTS,
+    NORMALIZATIONS,
+    SPEED_RANGE,
+    StudyConfig,
+    VehicleConfig,
+)
+from suspopt.spec.values import Problems, did_you_mean, is_number, parse_value, range_problem
+
+
+def layout_ok(v: VehicleConfig) -> bool:
+    return v.model in MODELS
+
+
+def canonical_road(road: dict[str, Any]) -> dict[str, Any]:
+    if road.get('profile') == TWO_TRACKS:
+        return {
+            'profile': TWO_TRACKS,
+            'left': canonical_road(road['left']),
+            'right': canonical_road(road['right']),
+        }
+    return make_road(typed_road(road)).to_dict()
+
+
+def typed_road(road: dict[str, Any]) -> dict[str, Any]:
+    """The road table with ints promoted to floats where the profile expects floats."""
+    kind = road.get('profile', 'two_bumps')
+    fields = profile_fields(kind)
+    out = {'profile': kind}
+    for k, v in road.items():
+        if k != 'profile':
+            out[k] = float(v) if isinstance(fields.get(k), float) and is_number(v) else v
+    return out
+
+
+def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
+    """Problems across keys; with ``sized`` (every value read), the grid and NLP size
+    too (not with values already refused: their messages would repeat the cause)."""
+    errs = Problems()
+    v = cfg.vehicle
+    if math.isfinite(v.wheelbase) and v.wheelbase <= 0.0:
+        errs.add(
+            'vehicle.front.axle_position',
+            f'must be ahead of vehicle.rear.axle_position '
+            f'({v.front.axle_position:g} <= {v.rear.axle_position:g})',
+        )
+    for axle in ('front', 'rear'):
+        ax = getattr(v, axle)
+        if v.model == 'full_car':
+            if not ax.track > 0.0:
+                errs.add(f'vehicle.{axle}.track', f'must be > 0 (full car), got {ax.track:g}')
+        else:
+            if ax.track != 0.0:
+                errs.add(
+                    f'vehicle.{axle}.track',
+                    "only the full car has a track width (vehicle.model = 'full_car')",
+                )
+            if ax.anti_roll_bar:
+                errs.add(
+                    f'vehicle.{axle}.anti_roll_bar',
+                    'a half car has no left and right '
+                    "wheels to couple (vehicle.model = 'full_car')",
+                )
+    if v.model == 'full_car' and not v.chassis_roll_inertia > 0.0:
+        errs.add(
+            'vehicle.chassis_roll_inertia',
+            f'must be > 0 (full car), got {v.chassis_roll_inertia:g}',
+        )
+    elif v.model != 'full_car' and v.chassis_roll_inertia != 0.0:
+        errs.add(
+            'vehicle.chassis_roll_inertia', "only the full car rolls (vehicle.model = 'full_car')"
+        )
+    for name, dv in cfg.design.variables.items():
+        key = f'design.{name}'
+        vals = (dv.initial, dv.lower, dv.upper)
+        if not all(math.isfinite(x) for x in vals):
+            continue
+        limit = DESIGN_LIMITS[design_kind(name)]
+        for which, x in (('initial', dv.initial), ('lower', dv.lower), ('upper', dv.upper)):
+            if x > limit:
+                errs.add(
+                    f'{key}.{which}',
+                    f'{x:g} {DESIGN_UNITS[design_kind(name)]} is '
+                    f'implausible for a road vehicle: at most {limit:g} (a typo?)',
+                )
+        if design_kind(name) == 'k_R':
+            if dv.lower < 0.0:
+                errs.add(f'{key}.lower', f'must be >= 0 (a bar rate), got {dv.lower:g}')
+        elif dv.lower <= 0.0:
+            errs.add(f'{key}.lower', f'must be > 0 (a rate or damping), got {dv.lower:g}')
+        if dv.lower > dv.upper:
+            errs.add(f'{key}.lower', f'lower bound {dv.lower:g} is above upper bound {dv.upper:g}')
+        elif not dv.lower <= dv.initial <= dv.upper:
+            errs.add(
+                f'{key}.initial',
+                f'{dv.initial:g} is outside the bounds [{dv.lower:g}, {dv.upper:g}]',
+            )
+    obj = cfg.objective
+    w = list(obj.weights.values())
+    if w and (any(x < 0.0 for x in w) or not any(x > 0.0 for x in w)):
+        errs.add('objective.weights', f'must be >= 0 and not all zero, got {obj.weights}')
+    if obj.normalization not in NORMALIZATIONS:
+        errs.add(
+            'objective.normalization',
+            f'must be one of {", ".join(NORMALIZATIONS)}, got '
+            f'{obj.normalization!r}{did_you_mean(obj.normalization, NORMALIZATIONS)}',
+        )
+    terms = cfg.terms() if layout_ok(v) else ()
+    if obj.normalization == 'custom':
+        if set(obj.scales) != set(terms) or any(not s > 0.0 for s in obj.scales.values()):
+            errs.add(
+                'objective.scales',
+                f'custom normalization needs a positive scale for '
+                f'each term ({", ".join(terms)}), got {obj.scales}',
+            )
+    elif obj.scales:
+        errs.add('objective.scales', "only used with normalization = 'custom'")
+    if obj.normalization == 'paper' and v.model != 'half_car':
+        errs.add(
+            'objective.normalization',
+            "the paper's scales are for the half car's four terms; use 'reference' or 'custom'",
+        )
+    if obj.aggregate not in AGGREGATES:
+        errs.add(
+            'objective.aggregate',
+            f'must be one of {", ".join(AGGREGATES)}, got '
+            f'{obj.aggregate!r}{did_you_mean(obj.aggregate, AGGREGATES)}',
+        )
+    tr = cfg.transcription
+    if 0 < tr.order < 2:  # Radau with one point per segment degenerates (order <= 0: above)
+        errs.add('transcription.order', f'must be >= 2 (Radau points per segment), got {tr.order}')
+    errs.extend(_segments_check(tr.segments, 'transcription.segments'))
+    op = cfg.optimizer
+    if not 0 <= op.print_level <= 12:
+        errs.add('optimizer.print_level', f'must be 0..12 (IPOPT), got {op.print_level}')
+    if op.options:  # checked on IPOPT itself (the driver's imports: only when needed)
+        from suspopt.driver import ipopt_option_problems
+
+        errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
+    if tr.initial_guess not in ('auto', 'simulate', 'zero'):
+        errs.add(
+            'transcription.initial_guess',
+            f"must be 'auto', 'simulate' or 'zero', got {tr.initial_guess!r}",
+        )
+    if cfg.multibody.fd_form not in ('forward', 'central'):
+        errs.add(
+            'multibody.fd_form', f"must be 'forward' or 'central', got {cfg.multibody.fd_form!r}"
+        )
+    if cfg.multibody.mount not in MOUNTS:
+        errs.add(
+            'multibody.mount',
+            f'must be one of {", ".join(MOUNTS)}, got '
+            f'{cfg.multibody.mount!r}{did_you_mean(cfg.multibody.mount, MOUNTS)}',
+        )
+    n_tracks = 2 if v.model == 'full_car' else 1
+    errs.extend(_road_checks(cfg.road, 'road', cfg.maneuver.speed * cfg.maneuver.horizon, n_tracks))
+    names = set()
+    for i, sc in enumerate(cfg.scenario):
+        key = f'scenario[{i}]'
+        if sc.name in names:
+            errs.add(f'{key}.name', f'duplicate scenario name {sc.name!r}')
+        names.add(sc.name)
+        for fld, limits in (('speed', SPEED_RANGE), ('horizon', HORIZON_RANGE)):
+            val = getattr(sc, fld)
+            if not (math.isfinite(val) and val >= 0.0):
+                errs.add(f'{key}.{fld}', f'must be > 0 (or absent), got {val:g}')
+            elif val and (problem := range_problem(val, limits)):
+                errs.add(f'{key}.{fld}', problem)
+        if not (math.isfinite(sc.weight) and sc.weight > 0.0):
+            errs.add(f'{key}.weight', f'must be > 0, got {sc.weight:g}')
+        if sc.order and sc.order < 2:
+            errs.add(f'{key}.order', f'must be >= 2, got {sc.order}')
+        if sc.segments:
+            errs.extend(_segments_check(sc.segments, f'{key}.segments'))
+        if sc.road:
+            length = (sc.speed or cfg.maneuver.speed) * (sc.horizon or cfg.maneuver.horizon)
+            errs.extend(_road_checks(sc.road, f'{key}.road', length, n_tracks))
+    errs.extend(_mechanism_checks(cfg))
+    if not errs and sized:
+        errs.extend(_size_checks(cfg))
+    return list(errs)
+
+
+def _segments_check(segments: Any, key: str) -> list[str]:
+    if segments == 'auto':
+        return []
+    if isinstance(segments, bool) or not isinstance(segments, int):
+        return [f'{key}: must be an integer or "auto", got {segments!r}']
+    if segments <= 0:
+        return [f'{key}: must be > 0, got {segments}']
+    return []
+
+
+def _size_checks(cfg: StudyConfig) -> list[str]:
+    """Refuse a grid that cannot represent the motion (too few nodes per period of the
+    wheel hop or the road, :func:`~suspopt.transcription.grid.grid_problems`) and an NLP
+    too large to build (a resource estimate), before any work."""
+    from suspopt.spec.resolve import grid_problems, nlp_size
+
+    errs = []
+    try:
+        scenarios = cfg.scenarios()
+    except ConfigError as err:
+        return err.problems
+    sizes = []
+    for i, sc in enumerate(scenarios):
+        own = cfg.scenario[i].segments if cfg.scenario else 0
+        key = f'scenario[{i}].segments' if own else 'transcription.segments'
+        if (own or cfg.transcription.segments) != 'auto':
+            errs.extend(
+                grid_problems(
+                    cfg, sc, key if not cfg.scenario or own else f'{key} (scenario {sc.name!r})'
+                )
+            )
+        sizes.append((nlp_size(cfg, sc), sc, key))
+    total = sum(n for n, _, _ in sizes)
+    if total > MAX_NLP_VARIABLES:
+        n, sc, key = max(sizes, key=lambda x: x[0])
+        everything = f' ({total:.3g} with all scenarios)' if len(sizes) > 1 else ''
+        errs.append(
+            f'{key}: {sc.segments} segments of order {sc.order} over {sc.horizon:g} s '
+            f'make {n:.3g} NLP variables{everything}, at most {MAX_NLP_VARIABLES:.3g} '
+            'can be built in reasonable time and memory; check maneuver.horizon and '
+            'the grid'
+        )
+    return errs
+
+
+def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int) -> list[str]:
+    errs = Problems()
+    if not isinstance(road, dict):
+        return [f'{where}: must be a table, got {road!r}']
+    kind = road.get('profile', 'two_bumps')
+    if not isinstance(kind, str):
+        return [f'{where}.profile: must be a string (a profile name), got {kind!r}']
+    if kind == TWO_TRACKS:
+        if n_tracks != 2:
+            return [
+                f'{where}.profile: {TWO_TRACKS} needs a car with two wheel tracks '
+                "(vehicle.model = 'full_car')"
+            ]
+        for k in road:
+            if k not in ('profile', 'left', 'right'):
+                errs.add(f'{where}.{k}', f'unknown key for profile {TWO_TRACKS!r} (left, right)')
+        for side in ('left', 'right'):
+            if not isinstance(road.get(side), dict):
+                errs.add(f'{where}.{side}', 'missing table (a road profile)')
+            else:
+                errs.extend(_road_checks(road[side], f'{where}.{side}', length, 1))
+        if not errs:
+            ends = []
+            for side in ('left', 'right'):
+                r = make_road(typed_road(road[side]))
+                if isinstance(r, CSVRoad):
+                    ends.append((side, float(r._data()[0][-1])))
+            if len(ends) == 2 and abs(ends[0][1] - ends[1][1]) > 1e-9:
+                errs.add(
+                    f'{where}.right.file',
+                    f'the tracks have different lengths: left ends '
+                    f'at {ends[0][1]:g} m, right at {ends[1][1]:g} m',
+                )
+        return list(errs)
+    if kind not in PROFILES:
+        errs.add(
+            f'{where}.profile',
+            f'unknown profile {kind!r}'
+            f'{did_you_mean(str(kind), list(PROFILES) + [TWO_TRACKS])} '
+            f'(built-in: {", ".join(list(PROFILES) + [TWO_TRACKS])})',
+        )
+        return list(errs)
+    allowed = profile_fields(kind)
+    sub = Problems()
+    params = {}
+    for k, val in road.items():
+        if k == 'profile':
+            continue
+        if k not in allowed:
+            sub.add(f'{where}.{k}', f'unknown key for profile {kind!r}' + did_you_mean(k, allowed))
+            continue
+        default = allowed[k]
+        if isinstance(default, tuple):
+            params[k] = parse_value(tuple[float, ...], val, f'{where}.{k}', sub, {})
+        elif isinstance(default, bool):
+            params[k] = parse_value(bool, val, f'{where}.{k}', sub, {})
+        elif isinstance(default, int):
+            params[k] = parse_value(int, val, f'{where}.{k}', sub, {})
+        elif isinstance(default, float):
+            params[k] = parse_value(float, val, f'{where}.{k}', sub, {})
+        else:
+            params[k] = parse_value(str, val, f'{where}.{k}', sub, {})
+    if kind == 'csv' and not road.get('file'):
+        sub.add(f'{where}.file', 'missing value (path of a distance,height CSV)')
+    if sub:
+        return list(sub)
+    return make_road(typed_road({'profile': kind, **params})).validate(length, where)
+
+
+#: a wheel rate below this fraction of the spring rate at the reference pose is zero:
+#: the linkage barely moves the spring (motion ratio below 0.03)
+WHEEL_RATE_FLOOR = 1e-3
+
+
+#: _mechanism_standing's answers by (name, file content): a sweep validates the same
+#: mechanism for every task (a memo of a function of the file alone)
+_STANDING: dict[tuple[str, bytes], Any] = {}
+
+
+def _mechanism_standing(name: str) -> tuple[float, float, float, str] | list[str]:
+    """``(a, b, MR, spring)`` of :func:`reference_wheel_rate` for mechanism ``name``, or
+    the problems of its file."""
+    from suspopt.multibody.kinematics import reference_wheel_rate
+    from suspopt.multibody.mechanism import load_mechanism, mechanism_path
+    from suspopt.multibody.solver import PlanarMultibodySolver
+
+    try:
+        memo = (name, mechanism_path(name).read_bytes())
+    except OSError:  # load_mechanism names the problem
+        memo = None
+    if memo in _STANDING:
+        return _STANDING[memo]
+    try:
+        mech = load_mechanism(name, suspension=True)
+        out: Any = (*reference_wheel_rate(mech, PlanarMultibodySolver(mech)), mech.roles['spring'])
+    except ConfigError as err:
+        out = err.problems
+    if memo is not None:
+        if len(_STANDING) >= 64:
+            _STANDING.clear()
+        _STANDING[memo] = out
+    return out
+
+
+def _mechanism_checks(cfg: StudyConfig) -> list[str]:
+    """Every mechanism loads, passes its travel range, and stands: a positive wheel rate at
+    the reference pose for every spring rate of its axle's design range."""
+    from suspopt.multibody.mechanism import mechanism_path
+
+    errs = []
+    seen: dict[str, Any] = {}
+    for i, axle in enumerate(('front', 'rear')):
+        name = getattr(cfg.vehicle, axle).mechanism
+        key = f'vehicle.{axle}.mechanism'
+        if name not in seen:
+            seen[name] = _mechanism_standing(name)
+        if isinstance(seen[name], list):
+            errs.extend(f'{key}: {m}' for m in seen[name])
+            continue
+        a, b, mr, spring = seen[name]
+        ks = [n for n in cfg.design.names if design_kind(n) == 'k_S' and n[3] == str(i + 1)]
+        for n in ks:
+            dv = cfg.design[n]
+            bad = [
+                k
+                for k in (dv.lower, dv.upper)
+                if math.isfinite(k) and not a * k + b > WHEEL_RATE_FLOOR * k
+            ]
+            if bad:
+                why = (
+                    'the spring does not deflect with the wheel travel'
+                    if abs(mr) < 0.03
+                    else 'the other springs make it unstable'
+                )
+                rate, mr = a * bad[0] + b + 0.0, mr + 0.0  # no "-0"
+                errs.append(
+                    f'{key}: {mechanism_path(name)}: suspension.spring: wheel rate '
+                    f'{rate:.4g} N/m at the reference pose for {n} = {bad[0]:g} N/m '
+                    f'(motion ratio {mr:.3g}; {why}): the linkage is statically '
+                    'unstable; it needs a positive wheel rate over '
+                    f'[{dv.lower:g}, {dv.upper:g}] (force {spring!r})'
+                )
+                break
+    return errs
+

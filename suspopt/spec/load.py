@@ -1,0 +1,268 @@
+"""Reading a study description: TOML or a plain dictionary to the schema
+(:mod:`suspopt.spec.schema`), every problem reported at once, one line per problem naming
+its key, as a :class:`~suspopt.errors.ConfigError` (exit code 2 on the command line).
+
+A missing key takes the value of its vehicle model's default car (the paper's half car,
+or :func:`full_car_defaults`); relative file paths (road CSV, mechanism files) are resolved
+against the file's folder; the checks across keys run once every value is read
+(:mod:`suspopt.spec.checks`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from suspopt.errors import ConfigError
+from suspopt.models.design import design_kind
+from suspopt.road import TWO_TRACKS
+from suspopt.spec.checks import canonical_road, layout_ok, semantic_checks
+from suspopt.spec.schema import (
+    DESIGN_DEFAULTS,
+    MODELS,
+    DesignConfig,
+    DesignVariable,
+    StudyConfig,
+    VehicleConfig,
+    default_weights,
+    design_names,
+    objective_terms,
+)
+from suspopt.spec.values import Problems, did_you_mean, is_number, parse_dataclass
+
+
+def full_car_defaults() -> StudyConfig:
+    """The default full car: a BMW E90 (330i, 2006) as Chrono::Vehicle models it
+    (``src/chrono_models/vehicle/bmw/``, data credited there to SAE 2007-01-0817/-0818):
+    sprung mass, roll and pitch inertia, CG position, tracks, tyre rate; spring and damper
+    rates of its front MacPherson and rear double wishbone as wheel rates; anti-roll bars.
+    Driven over an ISO 8608 class C road (isotropic left/right coherence) at 20 m/s."""
+    from suspopt.spec.vehicles import BMW_E90
+
+    return config_from_dict(BMW_E90)
+
+
+_TABLE_REPLACED = ('road', 'options', 'weights', 'scales')
+
+
+def _merge(base: dict, override: dict) -> dict:
+    out = dict(base)
+    for k, v in override.items():
+        out[k] = (
+            _merge(base[k], v)
+            if isinstance(v, dict) and isinstance(base.get(k), dict) and k not in _TABLE_REPLACED
+            else v
+        )
+    return out
+
+
+def _parse_design(
+    data: Any, vehicle: VehicleConfig, errs: Problems, defaults: dict[str, Any] | None = None
+) -> DesignConfig:
+    """The design table; a variable not given takes the default car's entry
+    (``defaults``) or the kind's default (:data:`DESIGN_DEFAULTS`)."""
+    defaults = defaults or {}
+    if not isinstance(data, dict):
+        errs.add('design', f'must be a table, got {data!r}')
+        data = {}
+    per_corner = data.get('per_corner', defaults.get('per_corner', False))
+    if not isinstance(per_corner, bool):
+        errs.add('design.per_corner', f'must be true or false, got {per_corner!r}')
+        per_corner = False
+    if per_corner and vehicle.model != 'full_car':
+        errs.add('design.per_corner', 'only the full car has left and right corners')
+        per_corner = False
+    names = design_names(vehicle, per_corner)
+    axle_names = design_names(vehicle, False) if per_corner else ()
+    for k in data:
+        if k != 'per_corner' and k not in names and k not in axle_names:
+            errs.add(
+                f'design.{k}',
+                'unknown key'
+                + did_you_mean(k, names)
+                + f' (design variables of this car: {", ".join(names)})',
+            )
+    variables = {}
+    for n in names:
+        default = dict(zip(('initial', 'lower', 'upper'), DESIGN_DEFAULTS[design_kind(n)]))
+        default.update(
+            defaults.get(n, defaults.get(n[:4], {})) if per_corner else defaults.get(n, {})
+        )
+        given = data.get(n, {})
+        if per_corner and not given:  # a corner's variable defaults to its axle's
+            given = data.get(n[:4], {})
+        variables[n] = parse_dataclass(
+            DesignVariable,
+            {**default, **given} if isinstance(given, dict) else given,
+            f'design.{n}',
+            errs,
+        )
+    return DesignConfig(per_corner=per_corner, variables=variables)
+
+
+def _parse_named(
+    data: Any, terms: tuple[str, ...], key: str, errs: Problems, missing: float | None
+) -> dict[str, float]:
+    """A table of numbers by objective term, or a list in term order."""
+    if isinstance(data, (list, tuple)):
+        if len(data) != len(terms):
+            errs.add(key, f'needs {len(terms)} values ({", ".join(terms)}), got {len(data)}')
+            return {}
+        data = dict(zip(terms, data))
+    if not isinstance(data, dict):
+        errs.add(key, f'must be a table by term ({", ".join(terms)}) or a list, got {data!r}')
+        return {}
+    out = {}
+    for k, v in data.items():
+        if k not in terms:
+            errs.add(
+                f'{key}.{k}',
+                'unknown term'
+                + did_you_mean(k, terms)
+                + f' (terms of this car: {", ".join(terms)})',
+            )
+        elif not is_number(v) or not math.isfinite(v):
+            errs.add(f'{key}.{k}', f'must be a finite number, got {v!r}')
+        else:
+            out[k] = float(v)
+    if missing is not None:
+        out = {t: out.get(t, missing) for t in terms}
+    return out
+
+
+def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -> StudyConfig:
+    """Parse and validate a study description (partial: missing keys take the defaults of
+    its vehicle model). ``base_dir`` resolves relative file paths (road CSV, mechanism
+    files). Raises :class:`ConfigError` listing every problem."""
+    errs = Problems()
+    if not isinstance(data, dict):
+        raise ConfigError(f'a study description must be a table, got {type(data).__name__}')
+    model = (
+        (data.get('vehicle') or {}).get('model', 'half_car')
+        if isinstance(data.get('vehicle'), dict)
+        else 'half_car'
+    )
+    if model not in MODELS:
+        raise ConfigError(
+            f'vehicle.model: must be one of {", ".join(MODELS)}, got {model!r}'
+            + did_you_mean(str(model), MODELS)
+        )
+    defaults = StudyConfig().to_dict()
+    if model == 'full_car':
+        from suspopt.spec.vehicles import BMW_E90
+
+        defaults = _merge(defaults, BMW_E90)
+        defaults['design'] = BMW_E90['design']
+        defaults['objective']['weights'] = {}
+    full = _merge(defaults, {k: v for k, v in data.items() if k not in ('design',)})
+    for key in ('road',):
+        if isinstance(data.get(key), dict):
+            full[key] = dict(data[key])  # a road table replaces the default, not merges
+    design_data = data.get('design', {})
+    objective = full.get('objective', {})
+    weights_data = objective.pop('weights', None) if isinstance(objective, dict) else None
+    scales_data = objective.pop('scales', None) if isinstance(objective, dict) else None
+    cfg = parse_dataclass(StudyConfig, {k: v for k, v in full.items() if k != 'design'}, '', errs)
+    design = _parse_design(
+        design_data if design_data is not None else {}, cfg.vehicle, errs, defaults['design']
+    )
+    terms = objective_terms(cfg.vehicle.layout()) if layout_ok(cfg.vehicle) else ()
+    weights = (
+        _parse_named(weights_data, terms, 'objective.weights', errs, 0.0)
+        if weights_data not in (None, {})
+        else default_weights(cfg.vehicle.layout())
+        if terms
+        else {}
+    )
+    scales = (
+        _parse_named(scales_data, terms, 'objective.scales', errs, None)
+        if scales_data not in (None, {}, [])
+        else {}
+    )
+    cfg = dataclasses.replace(
+        cfg,
+        design=design,
+        objective=dataclasses.replace(cfg.objective, weights=weights, scales=scales),
+    )
+    cfg = _resolve_paths(cfg, base_dir)
+    errs.extend(semantic_checks(cfg, sized=not errs))
+    if errs:
+        raise ConfigError(list(errs))
+    # canonical road descriptions: the profile with all of its parameters
+    return dataclasses.replace(
+        cfg,
+        road=canonical_road(cfg.road),
+        scenario=tuple(
+            dataclasses.replace(s, road=canonical_road(s.road) if s.road else {})
+            for s in cfg.scenario
+        ),
+    )
+
+
+
+
+
+
+
+
+
+
+
+def _resolve_paths(cfg: StudyConfig, base_dir: str | Path | None) -> StudyConfig:
+    if base_dir is None:
+        return cfg
+    from suspopt.multibody.mechanism import builtin_mechanisms
+
+    base = Path(base_dir)
+
+    def fix(p: str) -> str:
+        return p if Path(p).is_absolute() else str((base / p).resolve())
+
+    def fix_road(road: dict[str, Any]) -> dict[str, Any]:
+        road = dict(road)
+        if road.get('profile') == TWO_TRACKS:
+            for side in ('left', 'right'):
+                if isinstance(road.get(side), dict):
+                    road[side] = fix_road(road[side])
+        if road.get('profile') == 'csv' and isinstance(road.get('file'), str) and road['file']:
+            road['file'] = fix(road['file'])
+        return road
+
+    vehicle = cfg.vehicle
+    for axle in ('front', 'rear'):
+        ax = getattr(vehicle, axle)
+        if ax.mechanism and ax.mechanism not in builtin_mechanisms():
+            vehicle = dataclasses.replace(
+                vehicle, **{axle: dataclasses.replace(ax, mechanism=fix(ax.mechanism))}
+            )
+    return dataclasses.replace(
+        cfg,
+        vehicle=vehicle,
+        road=fix_road(cfg.road),
+        scenario=tuple(
+            dataclasses.replace(s, road=fix_road(s.road) if s.road else {}) for s in cfg.scenario
+        ),
+    )
+
+
+def load_config(path: str | Path) -> StudyConfig:
+    """Read and validate a study TOML file. Raises :class:`ConfigError`."""
+    path = Path(path)
+    try:
+        with path.open('rb') as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f'config file not found: {path}') from None
+    except IsADirectoryError:
+        raise ConfigError(f'config file {path} is a directory') from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise ConfigError(f'{path}: not valid TOML: {err}') from None
+    except OSError as err:
+        raise ConfigError(f'cannot read config file {path}: {err.strerror}') from None
+    try:
+        return config_from_dict(data, base_dir=path.parent)
+    except ConfigError as err:
+        raise ConfigError([f'{path}: {p}' for p in err.problems]) from None
+

@@ -1,0 +1,377 @@
+"""The study description's schema: one plain, serializable tree of frozen dataclasses for
+the car, roads, design space, objective, transcription and optimizer (``docs/study-file.md``).
+
+A :class:`StudyConfig` holds no live objects and is all a worker needs to rebuild a model,
+so many studies can be built and run side by side. It round-trips through plain
+dictionaries (:meth:`StudyConfig.to_dict`, :func:`suspopt.spec.load.config_from_dict`) and
+TOML files (:func:`suspopt.spec.load.load_config`, :mod:`suspopt.spec.template`).
+
+Two vehicle models share one description (``vehicle.model``): the paper's half car (two
+corners) and the full car (four corners, roll, optional anti-roll bars). Every key is
+optional; a missing key takes the value of that model's default car. Design variables,
+objective terms and their weights are named (``k_S1``, ``c_S2``, ``k_R1``; ``heave``,
+``pitch``, ``roll``, ``wheel_1`` ...) and depend on the model.
+
+A study may list several load cases (``[[scenario]]``: road, speed, horizon, grid,
+weight) that share one design; without them the study has one scenario made of its
+``maneuver``, ``road`` and ``transcription`` tables (:meth:`StudyConfig.scenarios`,
+resolved once per description by :mod:`suspopt.spec.resolve`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+from suspopt.models.design import design_kind
+from suspopt.models.layout import VehicleLayout, full_car, half_car
+from suspopt.road import RoadProfile, make_road
+from suspopt.spec.resolve import Scenario
+from suspopt.spec.resolve import scenarios as resolve_scenarios
+from suspopt.spec.values import check as _check
+from suspopt.spec.values import plausible as _plausible
+
+MODELS = ('half_car', 'full_car')
+NORMALIZATIONS = ('reference', 'paper', 'custom')
+AGGREGATES = ('sum', 'max')
+#: how a multibody module's frame is coupled to the chassis (``multibody.mount``)
+MOUNTS = ('ground', 'chassis')
+#: The paper's printed normalization factors (§4.2), for the half car's four terms.
+PAPER_SCALES = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
+#: Largest NLP suspopt builds, all scenarios together: nodes × states (a guard against a
+#: typo such as segments = 100000: the build's time and memory grow faster than its size)
+MAX_NLP_VARIABLES = 150_000
+#: Design variables' largest plausible values by kind (a guard against a unit typo).
+DESIGN_LIMITS = {'k_S': 1e7, 'c_S': 1e6, 'k_R': 1e7}
+
+
+#: maneuver limits (also for scenarios)
+SPEED_RANGE = (
+    0.0,
+    150.0,
+    'm/s',
+    "a road vehicle's speed",
+    'speeds are in m/s: 100 km/h is 27.8 m/s',
+)
+HORIZON_RANGE = (0.0, 600.0, 's', 'a maneuver (collocation resolves a few tens of seconds)', '')
+
+
+# ---------------------------------------------------------------------------- vehicle
+@dataclass(frozen=True)
+class AxleConfig:
+    """One axle: position, wheel (per corner), tyre, multibody mechanism, track width and
+    anti-roll bar (full car)."""
+
+    axle_position: float = field(
+        default=1.271,
+        metadata=_plausible(-20.0, 20.0, 'm', 'an axle position', doc='a_i [m], + ahead of the CG'),
+    )
+    wheel_mass: float = field(
+        default=120.0,
+        metadata=_plausible(
+            10.0, 2000.0, 'kg', "a road vehicle's wheel", check='positive', doc='m_i [kg]'
+        ),
+    )
+    tyre_stiffness: float = field(
+        default=200000.0,
+        metadata=_plausible(1e4, 1e7, 'N/m', 'a tyre', check='positive', doc='k_Ti [N/m]'),
+    )
+    mechanism: str = field(
+        default='double_wishbone', metadata={'doc': 'built-in name or path of a mechanism TOML'}
+    )
+    track: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 5.0, 'm', 'a wheel track', doc='full car: wheel track width [m]'),
+    )
+    anti_roll_bar: bool = field(
+        default=False, metadata={'doc': 'full car: a bar whose rate k_R is designed'}
+    )
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    """The car: the half car of SPEC §2 (paper Table 1) or a full car."""
+
+    model: str = 'half_car'
+    chassis_mass: float = field(
+        default=1414.0,
+        metadata=_plausible(
+            50.0, 1e5, 'kg', "a road vehicle's sprung mass", check='positive', doc='M [kg]'
+        ),
+    )
+    chassis_pitch_inertia: float = field(
+        default=2782.0,
+        metadata=_plausible(
+            1.0, 1e7, 'kg m^2', 'a pitch inertia', check='positive', doc='I [kg m^2]'
+        ),
+    )
+    chassis_roll_inertia: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1e7, 'kg m^2', 'a roll inertia', doc='full car: I_x [kg m^2]'),
+    )
+    front: AxleConfig = field(default_factory=AxleConfig)
+    rear: AxleConfig = field(default_factory=lambda: AxleConfig(axle_position=-1.713))
+
+    @property
+    def wheelbase(self) -> float:
+        """``L = a1 - a2`` [m]."""
+        return self.front.axle_position - self.rear.axle_position
+
+    @property
+    def axles(self) -> tuple[AxleConfig, AxleConfig]:
+        return (self.front, self.rear)
+
+    def layout(self) -> VehicleLayout:
+        """The corners of this car (:mod:`suspopt.models.layout`)."""
+        a1, a2 = self.front.axle_position, self.rear.axle_position
+        if self.model == 'full_car':
+            return full_car(a1, a2, self.front.track, self.rear.track)
+        return half_car(a1, a2)
+
+
+@dataclass(frozen=True)
+class ManeuverConfig:
+    """Constant-speed drive over the road for the time horizon (SPEC §1, §4)."""
+
+    speed: float = field(
+        default=10.0, metadata={'range': SPEED_RANGE, 'check': 'positive', 'doc': 'v [m/s]'}
+    )
+    horizon: float = field(
+        default=5.0, metadata={'range': HORIZON_RANGE, 'check': 'positive', 'doc': 'T [s]'}
+    )
+
+
+# ---------------------------------------------------------------------------- design
+@dataclass(frozen=True)
+class DesignVariable:
+    """One design variable: initial value and bounds; ``optimize = false`` holds it fixed."""
+
+    initial: float
+    lower: float
+    upper: float
+    optimize: bool = True
+
+
+#: default (initial, lower, upper) by kind: spring rate [N/m], damping [N s/m], anti-roll
+#: bar rate [N m/rad] (paper Table 3 for the first two)
+DESIGN_DEFAULTS = {
+    'k_S': (30000.0, 10000.0, 50000.0),
+    'c_S': (3000.0, 1000.0, 5000.0),
+    'k_R': (20000.0, 0.0, 100000.0),
+}
+
+
+def design_names(vehicle: VehicleConfig, per_corner: bool = False) -> tuple[str, ...]:
+    """The design variables of a car: spring rate and damping per axle (``k_S1``, ``c_S2``)
+    or per corner (``k_S1L`` ...), then each anti-roll bar's rate (``k_R1``)."""
+    groups = vehicle.layout().labels if per_corner and vehicle.model == 'full_car' else ('1', '2')
+    names = [f'k_S{g}' for g in groups] + [f'c_S{g}' for g in groups]
+    if vehicle.model == 'full_car':
+        names += [f'k_R{i + 1}' for i, ax in enumerate(vehicle.axles) if ax.anti_roll_bar]
+    return tuple(names)
+
+
+@dataclass(frozen=True)
+class DesignConfig:
+    """The design variables by name (paper Table 3 for the half car), per axle or, with
+    ``per_corner`` (full car), per corner."""
+
+    per_corner: bool = False
+    variables: dict[str, DesignVariable] = field(
+        default_factory=lambda: {
+            n: DesignVariable(*DESIGN_DEFAULTS[design_kind(n)])
+            for n in ('k_S1', 'k_S2', 'c_S1', 'c_S2')
+        }
+    )
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.variables)
+
+    def __getitem__(self, name: str) -> DesignVariable:
+        return self.variables[name]
+
+    def initial(self) -> dict[str, float]:
+        return {n: v.initial for n, v in self.variables.items()}
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        return {n: (v.lower, v.upper) for n, v in self.variables.items()}
+
+
+# ---------------------------------------------------------------------------- objective
+def objective_terms(layout: VehicleLayout) -> tuple[str, ...]:
+    """The objective's integrals (paper eq. 4, extended): chassis ``heave``, ``pitch`` (and
+    ``roll``) accelerations squared, and each wheel's travel squared (``wheel_<corner>``)."""
+    return (
+        ('heave', 'pitch')
+        + (('roll',) if layout.has_roll else ())
+        + tuple(f'wheel_{c}' for c in layout.labels)
+    )
+
+
+def default_weights(layout: VehicleLayout) -> dict[str, float]:
+    """Half comfort, half road holding: the paper's 0.25 each for the half car; for the
+    full car 1/6 on each chassis term and 1/8 on each wheel."""
+    terms = objective_terms(layout)
+    chassis = [t for t in terms if not t.startswith('wheel_')]
+    return {
+        t: (0.5 / len(chassis) if t in chassis else 0.5 / (len(terms) - len(chassis)))
+        for t in terms
+    }
+
+
+@dataclass(frozen=True)
+class ObjectiveConfig:
+    """``f = Σ w_k J_k / s_k`` (SPEC §5). ``normalization``: ``reference`` (s_k = J_k of the
+    low-fidelity model at the initial design, by time marching), ``paper`` (0.1, 0.01, 1, 1;
+    half car) or ``custom`` (``scales`` given). With several scenarios, ``aggregate`` combines
+    their objectives: ``sum`` (Σ w_s f_s) or ``max`` (the worst case, in epigraph form)."""
+
+    weights: dict[str, float] = field(default_factory=dict)
+    normalization: str = 'reference'
+    scales: dict[str, float] = field(default_factory=dict)
+    aggregate: str = 'sum'
+
+
+# ---------------------------------------------------------------------------- the rest
+@dataclass(frozen=True)
+class TranscriptionConfig:
+    """Dymos Radau collocation grid (SPEC §6) and the states' initial guess. ``segments`` is
+    a number or ``"auto"`` (:func:`suspopt.transcription.grid.auto_segments`)."""
+
+    segments: Any = field(default=80, metadata={'doc': 'uniform segments, or "auto"'})
+    order: int = field(default=5, metadata=_check('positive'))
+    initial_guess: str = field(
+        default='auto',
+        metadata={
+            'doc': 'auto (zero for the half car, simulate for '
+            "the mixed model), simulate (the half car's "
+            'time marching at the start design) or zero'
+        },
+    )
+
+
+@dataclass(frozen=True)
+class OptimizerConfig:
+    """IPOPT settings (defaults: IPOPT's own convergence criteria, L-BFGS Hessian)."""
+
+    max_iter: int = field(default=500, metadata=_check('positive'))
+    tol: float = field(default=1e-8, metadata=_check('positive'))
+    print_level: int = 0
+    options: dict[str, Any] = field(default_factory=dict, metadata={'doc': 'raw IPOPT options'})
+
+
+@dataclass(frozen=True)
+class MultibodyConfig:
+    """Finite differencing of the black-box multibody module, and how its frame is
+    coupled to the chassis (``mount``, see :mod:`suspopt.multibody.suspension`)."""
+
+    fd_form: str = 'forward'
+    fd_step: float = field(
+        default=1e-6,
+        metadata=_plausible(
+            1e-10,
+            1e-2,
+            '',
+            'a finite-difference step (SI units: m, m/s, N)',
+            check='positive',
+            doc='absolute step in the SI units of every input (m, m/s, N)',
+        ),
+    )
+    mount: str = field(
+        default='ground',
+        metadata={
+            'doc': 'ground: the frame is fixed and the chassis feels the spring only (the '
+            "paper's coupling); chassis: the frame moves with the chassis and the "
+            'chassis feels every chassis-side reaction'
+        },
+    )
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """One load case: a road driven at a speed for a horizon on a grid, with a weight."""
+
+    name: str = ''
+    weight: float = 1.0
+    speed: float = 0.0
+    horizon: float = 0.0
+    road: dict[str, Any] = field(default_factory=dict)
+    segments: Any = 0
+    order: int = 0
+
+
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """Everything a study needs; the defaults reproduce SPEC exactly."""
+
+    vehicle: VehicleConfig = field(default_factory=VehicleConfig)
+    maneuver: ManeuverConfig = field(default_factory=ManeuverConfig)
+    road: dict[str, Any] = field(default_factory=lambda: make_road({}).to_dict())
+    design: DesignConfig = field(default_factory=DesignConfig)
+    objective: ObjectiveConfig = field(
+        default_factory=lambda: ObjectiveConfig(weights=default_weights(half_car(1.271, -1.713)))
+    )
+    transcription: TranscriptionConfig = field(default_factory=TranscriptionConfig)
+    optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
+    multibody: MultibodyConfig = field(default_factory=MultibodyConfig)
+    scenario: tuple[ScenarioConfig, ...] = ()
+
+    def layout(self) -> VehicleLayout:
+        return self.vehicle.layout()
+
+    def terms(self) -> tuple[str, ...]:
+        return objective_terms(self.layout())
+
+    def design_names(self) -> tuple[str, ...]:
+        return self.design.names
+
+    def weights(self) -> tuple[float, ...]:
+        """The objective weights in term order."""
+        return tuple(self.objective.weights[t] for t in self.terms())
+
+    def scenarios(self) -> tuple[Scenario, ...]:
+        """The load cases, every value resolved, the grids included
+        (:func:`suspopt.spec.resolve.scenarios`); resolved once per description."""
+        cached = self.__dict__.get('_scenarios')
+        if cached is None:
+            cached = resolve_scenarios(self)
+            object.__setattr__(self, '_scenarios', cached)
+        return cached
+
+    def road_profile(self) -> RoadProfile:
+        return make_road(self.road)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A plain (JSON/TOML-able) dictionary; :func:`config_from_dict` inverts it."""
+        return _to_plain(self)
+
+    def replace(self, **changes: Any) -> StudyConfig:
+        return dataclasses.replace(self, **changes)
+
+    def with_weights(self, weights: dict[str, float]) -> StudyConfig:
+        return dataclasses.replace(
+            self,
+            objective=dataclasses.replace(
+                self.objective, weights={t: float(weights.get(t, 0.0)) for t in self.terms()}
+            ),
+        )
+
+
+
+
+
+def _to_plain(obj: Any) -> Any:
+    if isinstance(obj, DesignConfig):
+        return {'per_corner': obj.per_corner, **{n: _to_plain(v) for n, v in obj.variables.items()}}
+    if dataclasses.is_dataclass(obj):
+        return {f.name: _to_plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, (tuple, list)):
+        return [_to_plain(v) for v in obj]
+    if isinstance(obj, dict):
+        return {k: _to_plain(v) for k, v in obj.items()}
+    return obj
+
