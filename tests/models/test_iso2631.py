@@ -256,3 +256,25 @@ def test_bad_weightings_name_the_key():
         iso.Weighting('Wq', f2=-3.0)
     with pytest.raises(ConfigError, match=r'Wq\.f5, f6: the upward step needs both'):
         iso.Weighting('Wq', f5=2.0)
+
+
+@pytest.mark.parametrize('name', ['Wk', 'We'])
+def test_lyapunov_variance_equals_the_integral_of_the_squared_weighting(name):
+    """White noise of two-sided spectral density S through the realization: the
+    stationary variance from the Lyapunov equation, C P Cᵀ with A P + P Aᵀ + S B Bᵀ = 0,
+    equals S ∫ |W(j 2π f)|² df over all frequencies (the spectral use of the same
+    matrices; D = 0 with the low pass in place)."""
+    from scipy.integrate import quad
+    from scipy.linalg import solve_continuous_lyapunov
+
+    S, w = 0.3, iso.weighting(name)
+    ss = w.state_space
+    assert np.all(ss.D == 0.0)
+    P = solve_continuous_lyapunov(ss.A, -S * ss.B @ ss.B.T)
+    variance = (ss.C @ P @ ss.C.T).item()
+    edges = np.logspace(-3, 4, 29)
+    integral = sum(
+        quad(lambda f: float(w.magnitude(f) ** 2), a, b, epsabs=0.0, epsrel=1e-11)[0]
+        for a, b in zip(edges[:-1], edges[1:])
+    )
+    assert variance == pytest.approx(2.0 * S * integral, rel=1e-7)
