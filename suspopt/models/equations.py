@@ -25,6 +25,19 @@ def mount_motion(
     return z_C - a * theta_C + y * phi_C
 
 
+def seat_acceleration(
+    zdd_C: ArrayLike, thdd_C: ArrayLike, phidd_C: ArrayLike | float, x: ArrayLike, y: ArrayLike
+) -> np.ndarray:
+    """Vertical acceleration at points of the rigid chassis (seats) ``x`` forward of and
+    ``y`` left of its CG, ``z''_C - x θ''_C + y φ''_C`` (the linear kinematics of
+    :func:`mount_motion`, twice differentiated), one column per point: the input of the
+    ISO 2631-1 Wk weighting (:mod:`suspopt.models.iso2631`)."""
+    zdd: np.ndarray = np.asarray(zdd_C)[..., None]
+    thdd: np.ndarray = np.asarray(thdd_C)[..., None]
+    phidd: np.ndarray = np.asarray(phidd_C)[..., None]
+    return zdd - np.asarray(x, dtype=float) * thdd + np.asarray(y, dtype=float) * phidd
+
+
 def suspension_force(
     k_S: ArrayLike, c_S: ArrayLike, z_W: ArrayLike, v_W: ArrayLike, z_M: ArrayLike, v_M: ArrayLike
 ) -> np.ndarray:
