@@ -4,7 +4,7 @@
 analysis, joint reactions, a Baumgarte-stabilized solve off the constraint manifold, the
 suspension module's two queries and ``simulate_mechanism`` with both methods) at fixed
 inputs; ``python tests/data/multibody_reference.py`` writes the results to
-``tests/data/multibody_reference_<name>.json``. ``tests/test_multibody_regression.py``
+``tests/data/multibody_reference_<name>.json``. ``tests/multibody/test_multibody_regression.py``
 recomputes them with the current code and requires agreement to 1e-10 (outputs the
 current code has in addition, such as new markers, are not compared).
 
@@ -87,7 +87,7 @@ def compute(name: str) -> dict[str, list]:
         kin.state, q_U - F_S / k, np.zeros_like(q_U), k, np.zeros_like(k), x['loads'][:, 1]
     )
     # time simulation: a linear spring on the spring point's vertical displacement and a
-    # tyre pulse (as in tests/test_multibody_exudyn.py), both constraint methods
+    # tyre pulse (as in tests/validation/test_multibody_exudyn.py), both constraint methods
     z_U0 = s.marker_reference()[spring, 1]
 
     def loads(t, q, qd):

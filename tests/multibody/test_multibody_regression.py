@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-DATA = Path(__file__).parent / 'data'
+DATA = Path(__file__).resolve().parents[1] / 'data'
 _spec = importlib.util.spec_from_file_location(
     'multibody_reference', DATA / 'multibody_reference.py'
 )

@@ -33,7 +33,7 @@ from suspopt.road import read_road_csv
 from suspopt.spec.load import config_from_dict
 from suspopt.spec.template import toml_value
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SUSPOPT = [sys.executable, '-m', 'suspopt.cli']
 #: the paper's grid (16 x 5): the coarsest the default car accepts, quick to solve
 GRID = ['--segments', '16']
