@@ -3,6 +3,9 @@ sparse analytic partials (Dymos' idiom)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 import openmdao.api as om
 
@@ -19,6 +22,16 @@ class NodeComponent(om.ExplicitComponent):
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int, desc='number of nodes evaluated at once')
         self.options.declare('corners', types=int, default=2, desc='number of wheels')
+
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """The component's equation: its outputs from its inputs, for any number of nodes
+        (``compute`` calls it; so does the time marching, through the vehicle assembly of
+        :mod:`suspopt.models.assembly`). Depends on the options only, never on ``setup``."""
+        raise NotImplementedError
+
+    def compute(self, inputs, outputs) -> None:
+        for name, value in self.evaluate(inputs).items():
+            outputs[name] = value
 
     @property
     def _shape(self) -> tuple[int, int]:

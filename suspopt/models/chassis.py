@@ -51,8 +51,8 @@ class ChassisHeaveComp(_ChassisComp):
     def _lever(self) -> np.ndarray:
         return np.full(self.options['corners'], 1.0 / self.options['M'])
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['zdd_C'] = eq.chassis_heave_acceleration(self._total(inputs), self.options['M'])
+    def evaluate(self, inputs):
+        return {'zdd_C': eq.chassis_heave_acceleration(self._total(inputs), self.options['M'])}
 
 
 class ChassisPitchComp(_ChassisComp):
@@ -68,10 +68,9 @@ class ChassisPitchComp(_ChassisComp):
     def _lever(self) -> np.ndarray:
         return -self.options['a'] / self.options['I']
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['thdd_C'] = eq.chassis_pitch_acceleration(
-            self._total(inputs), self.options['a'], self.options['I']
-        )
+    def evaluate(self, inputs):
+        F = self._total(inputs)
+        return {'thdd_C': eq.chassis_pitch_acceleration(F, self.options['a'], self.options['I'])}
 
 
 class ChassisRollComp(_ChassisComp):
@@ -87,7 +86,6 @@ class ChassisRollComp(_ChassisComp):
     def _lever(self) -> np.ndarray:
         return self.options['y'] / self.options['I_x']
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['phidd_C'] = eq.chassis_roll_acceleration(
-            self._total(inputs), self.options['y'], self.options['I_x']
-        )
+    def evaluate(self, inputs):
+        F = self._total(inputs)
+        return {'phidd_C': eq.chassis_roll_acceleration(F, self.options['y'], self.options['I_x'])}

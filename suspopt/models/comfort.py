@@ -18,7 +18,8 @@ the segments short enough for it, or drop it in collocation with
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import openmdao.api as om
@@ -47,14 +48,17 @@ class SeatAccelerationComp(om.ExplicitComponent):
         )
         self.options.declare('roll', types=bool, default=False, desc='the chassis rolls')
 
-    def setup(self) -> None:
-        nn = self.options['num_nodes']
+    def _positions(self) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(self.options['x'], dtype=float).ravel()
         y = self.options['y']
         y = np.zeros_like(x) if y is None else np.asarray(y, dtype=float).ravel()
         if y.shape != x.shape:
             raise ConfigError(f'seats.y: {y.size} positions for {x.size} seats in seats.x')
-        self._x, self._y = x, y
+        return x, y
+
+    def setup(self) -> None:
+        nn = self.options['num_nodes']
+        x, y = self._positions()
         levers = [('zdd_C', 'm/s**2', np.ones_like(x)), ('thdd_C', 'rad/s**2', -x)]
         if self.options['roll']:
             levers.append(('phidd_C', 'rad/s**2', y))
@@ -75,11 +79,14 @@ class SeatAccelerationComp(om.ExplicitComponent):
                     val=np.tile(lever[nz], nn),
                 )
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """The seat accelerations (the vehicle assembly's equation)."""
         phidd = inputs['phidd_C'] if self.options['roll'] else 0.0
-        outputs['a_seat'] = eq.seat_acceleration(
-            inputs['zdd_C'], inputs['thdd_C'], phidd, self._x, self._y
-        )
+        x, y = self._positions()
+        return {'a_seat': eq.seat_acceleration(inputs['zdd_C'], inputs['thdd_C'], phidd, x, y)}
+
+    def compute(self, inputs, outputs) -> None:
+        outputs['a_seat'] = self.evaluate(inputs)['a_seat']
 
 
 def _block_pattern(M: np.ndarray, nn: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -114,12 +121,15 @@ class WeightingFilterComp(om.ExplicitComponent):
 
     @property
     def bank(self) -> FilterBank:
-        ws: Sequence[str | Weighting] = self.options['weightings']
-        return filter_bank(ws)
+        bank = getattr(self, '_bank', None)
+        if bank is None:
+            ws: Sequence[str | Weighting] = self.options['weightings']
+            bank = self._bank = filter_bank(ws)
+        return bank
 
     def setup(self) -> None:
         nn, units = self.options['num_nodes'], self.options['units']
-        self._bank = bank = self.bank
+        bank = self.bank
         ns, nch = bank.n_states, bank.channels
         rate_units = None if units is None else f'{units}/s'
         self.add_input('filter_x', shape=(nn, ns), units=units, desc='weighting filter states')
@@ -137,7 +147,14 @@ class WeightingFilterComp(om.ExplicitComponent):
                 rows, cols, val = _block_pattern(M, nn)
                 self.declare_partials(of, wrt, rows=rows, cols=cols, val=val)
 
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """The filter states' rates and the weighted signals (the assembly's equation)."""
+        ss = self.bank.system
+        return {
+            'filter_x_dot': ss.rates(inputs['filter_x'], inputs['signal']),
+            'weighted': ss.output(inputs['filter_x'], inputs['signal']),
+        }
+
     def compute(self, inputs, outputs) -> None:
-        ss = self._bank.system
-        outputs['filter_x_dot'] = ss.rates(inputs['filter_x'], inputs['signal'])
-        outputs['weighted'] = ss.output(inputs['filter_x'], inputs['signal'])
+        for name, value in self.evaluate(inputs).items():
+            outputs[name] = value

@@ -38,15 +38,17 @@ class MountMotionComp(NodeComponent):
             self._spread_partials('z_M', pos, val=np.tile(lever, nn))
             self._spread_partials('v_M', vel, val=np.tile(lever, nn))
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs):
         o = self.options
         roll = o['roll']
-        outputs['z_M'] = eq.mount_motion(
-            inputs['z_C'], inputs['theta_C'], inputs['phi_C'] if roll else 0.0, o['a'], o['y']
-        )
-        outputs['v_M'] = eq.mount_motion(
-            inputs['v_C'], inputs['omega_C'], inputs['p_C'] if roll else 0.0, o['a'], o['y']
-        )
+        return {
+            'z_M': eq.mount_motion(
+                inputs['z_C'], inputs['theta_C'], inputs['phi_C'] if roll else 0.0, o['a'], o['y']
+            ),
+            'v_M': eq.mount_motion(
+                inputs['v_C'], inputs['omega_C'], inputs['p_C'] if roll else 0.0, o['a'], o['y']
+            ),
+        }
 
 
 class SuspensionForceComp(NodeComponent):
@@ -70,10 +72,17 @@ class SuspensionForceComp(NodeComponent):
         for wrt in ('k_S', 'c_S'):
             self._setting_partials('F_S', wrt)
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['F_S'] = eq.suspension_force(
-            inputs['k_S'], inputs['c_S'], inputs['z_W'], inputs['v_W'], inputs['z_M'], inputs['v_M']
-        )
+    def evaluate(self, inputs):
+        return {
+            'F_S': eq.suspension_force(
+                inputs['k_S'],
+                inputs['c_S'],
+                inputs['z_W'],
+                inputs['v_W'],
+                inputs['z_M'],
+                inputs['v_M'],
+            )
+        }
 
     def compute_partials(self, inputs, partials) -> None:
         nn = self.options['num_nodes']
@@ -123,11 +132,18 @@ class AntiRollBarComp(NodeComponent):
             cols=np.tile(np.tile(np.arange(nb), nn), 2),
         )
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs):
         o = self.options
-        outputs['F_R'] = eq.anti_roll_force(
-            inputs['k_R'], inputs['z_W'], inputs['z_M'], np.array(o['track']), o['left'], o['right']
-        )
+        return {
+            'F_R': eq.anti_roll_force(
+                inputs['k_R'],
+                inputs['z_W'],
+                inputs['z_M'],
+                np.array(o['track']),
+                o['left'],
+                o['right'],
+            )
+        }
 
     def compute_partials(self, inputs, partials) -> None:
         o = self.options
@@ -162,8 +178,8 @@ class TyreForceComp(NodeComponent):
         self._corner_partials('F_T', 'delta', val=k)
         self._corner_partials('F_T', 'z_W', val=-k)
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['F_T'] = eq.tyre_force(self.options['k_T'], inputs['delta'], inputs['z_W'])
+    def evaluate(self, inputs):
+        return {'F_T': eq.tyre_force(self.options['k_T'], inputs['delta'], inputs['z_W'])}
 
 
 class WheelLoadComp(NodeComponent):
@@ -179,5 +195,5 @@ class WheelLoadComp(NodeComponent):
         self._corner_partials('F_W', 'F_T', val=np.ones(nn * nc))
         self._corner_partials('F_W', 'F_R', val=-np.ones(nn * nc))
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['F_W'] = inputs['F_T'] - inputs['F_R']
+    def evaluate(self, inputs):
+        return {'F_W': inputs['F_T'] - inputs['F_R']}

@@ -38,10 +38,12 @@ class MountRotationComp(NodeComponent):
             self.add_output(vel, shape=(nn, nc), units=units, desc='frame rotation (rate)')
             self._spread_partials(vel, pos, val=side)
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs):
         side = self.options['side']
-        outputs['psi_M'] = eq.mount_rotation(inputs['phi_C'], side)
-        outputs['w_M'] = eq.mount_rotation(inputs['p_C'], side)
+        return {
+            'psi_M': eq.mount_rotation(inputs['phi_C'], side),
+            'w_M': eq.mount_rotation(inputs['p_C'], side),
+        }
 
 
 class _MountComp(NodeComponent):
@@ -125,14 +127,13 @@ class ChassisMountComp(_MountComp):
         R = inputs['response']
         nu = self._L.shape[1]
         F0, G = eq.mount_forces(R, nu)
-        F_R = sum(inputs[f] for f in o['forces']) if o['forces'] else np.zeros(self._shape)
+        F_R = sum(inputs[f] for f in o['forces']) if o['forces'] else np.zeros(R.shape[:2])
         inertia = [o['M'], o['I']] + ([o['I_x']] if o['roll'] else [])
         return eq.chassis_mount_accelerations(F0, G, F_R, self._L, inertia), G, inertia
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs):
         acc, _, _ = self._solve(inputs)
-        for k, (name, _) in enumerate(self._chassis):
-            outputs[name] = acc[:, k]
+        return {name: acc[:, k] for k, (name, _) in enumerate(self._chassis)}
 
     def compute_partials(self, inputs, partials) -> None:
         acc, G, inertia = self._solve(inputs)
@@ -155,18 +156,22 @@ class MountResponseComp(_MountComp):
     ``zdd_W`` (the state rate), the vertical force on the chassis ``F_M`` and every joint's
     reaction on its first body."""
 
-    def setup(self) -> None:
-        nn, nc = self._shape
-        blocks, width = self._add_response()
+    def _targets(self, nn: int) -> dict[str, tuple[tuple[int, ...], str, list[int]]]:
+        """Each output's shape at ``nn`` nodes, units and entries of the response."""
+        nc, width = self.options['corners'], self.options['width']
         nj = (width - JOINTS) // 2
-        self._targets = {
+        return {
             'zdd_W': ((nn, nc), 'm/s**2', [ZDD_W]),
             'F_M': ((nn, nc), 'N', [F_Z]),
             'reactions': ((nn, nc, nj, 2), 'N', list(range(JOINTS, width))),
         }
+
+    def setup(self) -> None:
+        nn, nc = self._shape
+        blocks, width = self._add_response()
         for name, units in self._chassis:
             self.add_input(name, shape=(nn,), units=units)
-        for out, (shape, units, entries) in self._targets.items():
+        for out, (shape, units, entries) in self._targets(nn).items():
             self.add_output(out, shape=shape, units=units)
             e = np.asarray(entries)
             n, c, j = (
@@ -187,15 +192,17 @@ class MountResponseComp(_MountComp):
         acc = np.stack([inputs[name] for name, _ in self._chassis], -1)
         return eq.mount_accelerations(acc, self._L)
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs):
         r = eq.mount_response(inputs['response'], self._a_M(inputs))
-        for out, (shape, _, entries) in self._targets.items():
-            outputs[out] = r[:, :, entries].reshape(shape)
+        return {
+            out: r[:, :, entries].reshape(shape)
+            for out, (shape, _, entries) in self._targets(r.shape[0]).items()
+        }
 
     def compute_partials(self, inputs, partials) -> None:
         R = inputs['response']
         a_M, L = self._a_M(inputs), self._L
-        for out, (_, _, entries) in self._targets.items():
+        for out, (_, _, entries) in self._targets(R.shape[0]).items():
             Ru = R[:, :, 1:, entries]  # (n, c, u, j)
             ones = np.ones(Ru.shape[:2] + (len(entries),))
             partials[out, 'response'] = np.concatenate(

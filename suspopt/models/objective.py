@@ -49,10 +49,9 @@ class ObjectiveIntegrandComp(NodeComponent):
             cols=np.arange(nn * nc),
         )
 
-    def compute(self, inputs, outputs) -> None:
-        outputs['dJ_dt'] = eq.objective_integrands(
-            [inputs[n] for n, _ in self._chassis()], inputs['wheel_z']
-        )
+    def evaluate(self, inputs):
+        chassis = [inputs[n] for n, _ in self._chassis()]
+        return {'dJ_dt': eq.objective_integrands(chassis, inputs['wheel_z'])}
 
     def compute_partials(self, inputs, partials) -> None:
         for name, _ in self._chassis():

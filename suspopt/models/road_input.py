@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 import openmdao.api as om
 
@@ -37,7 +40,8 @@ class RoadInputComp(om.ExplicitComponent):
     def heights(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Heights and rates (num_nodes, corners) at node times ``t``."""
         key = np.ascontiguousarray(t).tobytes()
-        if self._memo is None or self._memo[0] != key:
+        memo = getattr(self, '_memo', None)
+        if memo is None or memo[0] != key:
             o = self.options
             h = np.empty((t.size, len(o['offsets'])))
             dh = np.empty_like(h)
@@ -51,8 +55,12 @@ class RoadInputComp(om.ExplicitComponent):
             self._memo = (key, h, dh)
         return self._memo[1], self._memo[2]
 
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """The road heights at the node times (the vehicle assembly's equation)."""
+        return {'delta': self.heights(np.asarray(inputs['time']).ravel())[0]}
+
     def compute(self, inputs, outputs) -> None:
-        outputs['delta'] = self.heights(inputs['time'])[0]
+        outputs['delta'] = self.evaluate(inputs)['delta']
 
     def compute_partials(self, inputs, partials) -> None:
         partials['delta', 'time'] = self.heights(inputs['time'])[1].ravel()

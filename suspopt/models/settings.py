@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 import openmdao.api as om
 
@@ -32,9 +35,19 @@ class SuspensionSettingsComp(om.ExplicitComponent):
             self.declare_partials(
                 kind, n, rows=rows, cols=np.zeros(len(rows), dtype=int), val=np.ones(len(rows))
             )
-        self._where = where
+
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        """The settings from the design variables (the vehicle assembly's equation)."""
+        names, labels = self.options['design'], self.options['labels']
+        nb = sum(1 for n in names if design_kind(n) == 'k_R')
+        dtype = np.result_type(float, *(np.asarray(inputs[n]) for n in names))  # complex step
+        sizes = {'k_S': len(labels), 'c_S': len(labels), 'k_R': nb}
+        out = {kind: np.zeros(size, dtype=dtype) for kind, size in sizes.items()}
+        for n, targets in corner_of_design(names, labels).items():
+            for kind, i in targets:
+                out[kind][i] = np.asarray(inputs[n]).ravel()[0]
+        return out if nb else {k: v for k, v in out.items() if k != 'k_R'}
 
     def compute(self, inputs, outputs) -> None:
-        for n, targets in self._where.items():
-            for kind, i in targets:
-                outputs[kind][i] = inputs[n][0]
+        for name, value in self.evaluate(inputs).items():
+            outputs[name] = value

@@ -32,6 +32,6 @@ class WheelDynamicsComp(NodeComponent):
         for name in self.options['forces']:
             self._corner_partials('zdd_W', name, val=-inv_m)
 
-    def compute(self, inputs, outputs) -> None:
+    def evaluate(self, inputs):
         F = sum(inputs[name] for name in self.options['forces'])
-        outputs['zdd_W'] = eq.wheel_acceleration(inputs['F_T'], F, self.options['m'])
+        return {'zdd_W': eq.wheel_acceleration(inputs['F_T'], F, self.options['m'])}

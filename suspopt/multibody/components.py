@@ -174,6 +174,10 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
         self.add_output('qd_W', shape=shape, units='m/s', desc='wheel vertical velocity')
         self.declare_nodewise_fd({n: 1 for n in self.OUTPUTS}, ['z_W', 'v_W', *self._pose])
 
+    #: the largest position-constraint violation [m] seen by :meth:`evaluate` since it was
+    #: set to a number (the time marching tracks it; None: not tracked, not computed)
+    residual_seen: float | None = None
+
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         z, v = values['z_W'], values['v_W']
         out = {n: np.empty_like(z) for n in self.OUTPUTS}
@@ -183,7 +187,23 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
             )
             for n in self.OUTPUTS:
                 out[n][:, cols] = getattr(kin, n).reshape(z.shape[0], len(cols))
+            if self.residual_seen is not None:
+                residual = mod.constraint_residual(kin.state, kin.pose)
+                self.residual_seen = max(self.residual_seen, residual)
         return out
+
+    def constraint_residual(self, values: dict[str, np.ndarray]) -> float:
+        """The largest position-constraint violation [m] of the position analysis at
+        these inputs."""
+        worst = 0.0
+        for mod, cols in self.groups():
+            kin = mod.kinematics(
+                values['z_W'][:, cols].ravel(),
+                values['v_W'][:, cols].ravel(),
+                pose=mount_pose(self, values, cols),
+            )
+            worst = max(worst, mod.constraint_residual(kin.state, kin.pose))
+        return worst
 
 
 def mount_pose_inputs(comp: NodewiseBlackBox) -> list[str]:
@@ -229,10 +249,13 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
 
     NODE_INPUTS = ('z_W', 'v_W', 'z_M', 'v_M', 'F_T')
 
+    @property
+    def _nj(self) -> int:
+        return max(m.solver.nj for m in self.options['modules'])
+
     def setup(self) -> None:
         nn, nc = self.options['num_nodes'], self.options['corners']
-        nj = max(m.solver.nj for m in self.options['modules'])
-        self._nj = nj
+        nj = self._nj
         shape = (nn, nc)
         self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
@@ -297,10 +320,13 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
     def width(self) -> int:
         return len(RESPONSE) + 2 * max(m.n_joints for m in self.options['modules'])
 
+    @property
+    def _blocks(self) -> int:
+        return 3 if self.options['roll'] else 2
+
     def setup(self) -> None:
         nn, nc = self.options['num_nodes'], self.options['corners']
         shape = (nn, nc)
-        self._blocks = 3 if self.options['roll'] else 2
         self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
         pose = mount_pose_inputs(self)

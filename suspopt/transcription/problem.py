@@ -35,6 +35,7 @@ import openmdao.api as om
 import suspopt.transcription.coloring_cache as cache
 from suspopt.driver import IpoptDriver, IterationInfo
 from suspopt.errors import ModelError
+from suspopt.models.assembly import constraint_residual
 from suspopt.models.design import DESIGN_UNITS, design_kind
 from suspopt.models.objective import (
     ObjectiveQuadratureComp,
@@ -45,13 +46,8 @@ from suspopt.models.objective import (
 from suspopt.records.trajectory import Trajectory
 from suspopt.spec.schema import StudyConfig
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
-from suspopt.transcription.phase import (
-    FIDELITIES,
-    build_phase,
-    state_defs,
-    timeseries_names,
-    vehicle_spec,
-)
+from suspopt.transcription.phase import build_phase
+from suspopt.transcription.vehicle import multibody_modules, vehicle_assembly
 
 #: scales of the objective terms, one table per scenario (term → s_k)
 Scales = tuple[dict[str, float], ...]
@@ -78,32 +74,6 @@ class SolveResult:
     history: list[IterationInfo] = field(default_factory=list)
     message: str = ''
     interrupted: bool = False
-
-
-def multibody_modules(config: StudyConfig) -> dict[str, Any]:
-    """One multibody module per distinct mechanism of the car (shared by its corners)."""
-    from suspopt.multibody.suspension import SuspensionModule
-
-    names = dict.fromkeys(ax.mechanism for ax in config.vehicle.axles)
-    return {n: SuspensionModule(n, mount=config.multibody.mount) for n in names}
-
-
-def mount_poses(layout, values: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]:
-    """The chassis mounts' poses ``(z_M, v_M, ψ, ψ̇)`` (each (N, corners)) along chassis
-    states ``values`` (z_C, v_C, theta_C, omega_C[, phi_C, p_C], each (N,))."""
-    from suspopt.models import equations as eq
-
-    roll = layout.has_roll
-    phi, p = (values['phi_C'], values['p_C']) if roll else (0.0, 0.0)
-    side = np.array([c.side for c in layout.corners], dtype=float)
-    z_M = eq.mount_motion(values['z_C'], values['theta_C'], phi, layout.a, layout.y)
-    v_M = eq.mount_motion(values['v_C'], values['omega_C'], p, layout.a, layout.y)
-    return (
-        z_M,
-        v_M,
-        eq.mount_rotation(np.broadcast_to(phi, z_M.shape[:1]), side),
-        eq.mount_rotation(np.broadcast_to(p, z_M.shape[:1]), side),
-    )
 
 
 class VehicleProblem:
@@ -135,8 +105,6 @@ class VehicleProblem:
         use_cache: bool = True,
         totals: str = 'auto',
     ):
-        if fidelity not in FIDELITIES:
-            raise ValueError(f'fidelity must be one of {FIDELITIES}, got {fidelity!r}')
         t0 = time.perf_counter()
         self.config, self.fidelity = config, fidelity
         self.scenarios = config.scenarios()
@@ -158,12 +126,12 @@ class VehicleProblem:
 
             p = self.problem = om.Problem(reports=False, work_dir=self._work_dir)
             traj = self.traj = p.model.add_subsystem('traj', dm.Trajectory())
-            self.phases, self.specs, self._quadrature = [], [], []
+            self.phases, self.assemblies, self._quadrature = [], [], []
             for i, sc in enumerate(self.scenarios):
-                spec = vehicle_spec(config, sc, fidelity, self.modules)
-                phase = traj.add_phase(f's{i}', build_phase(spec, fidelity, sc))
+                assembly = vehicle_assembly(config, sc, fidelity, self.modules)
+                phase = traj.add_phase(f's{i}', build_phase(assembly, sc))
                 self.phases.append(phase)
-                self.specs.append(spec)
+                self.assemblies.append(assembly)
                 self._quadrature.append(radau_quadrature_weights(sc.segments, sc.order, sc.horizon))
             for name in self.design_names:
                 dv = config.design[name]
@@ -292,10 +260,11 @@ class VehicleProblem:
         the guess starts from."""
         if not isinstance(trajs, (list, tuple)):
             trajs = [trajs] * len(self.scenarios)
-        for i, (phase, spec, sc, traj) in enumerate(
-            zip(self.phases, self.specs, self.scenarios, trajs)
+        for i, (phase, assembly, sc, traj) in enumerate(
+            zip(self.phases, self.assemblies, self.scenarios, trajs)
         ):
-            for name, _, _, _, shape in state_defs(spec):
+            for state in assembly.states:
+                name, shape = state.name, state.shape
                 if traj is None:
                     t, vals = np.array([0.0, sc.horizon]), np.zeros((2,) + shape)
                 else:  # collocation trajectories repeat the segment-boundary times
@@ -323,42 +292,26 @@ class VehicleProblem:
 
     def timeseries(self, scenario: int = 0) -> Trajectory:
         """The collocation solution of one scenario at its nodes."""
-        p, spec = self.problem, self.specs[scenario]
+        p, assembly = self.problem, self.assemblies[scenario]
         ts = f'traj.s{scenario}.timeseries.'
         t = p.get_val(ts + 'time')[:, 0]
         values = {}
-        for name, _, _, _, shape in state_defs(spec):
-            val = p.get_val(ts + name)
-            values[name] = val[:, 0] if shape == (1,) else val
-        for name in timeseries_names(spec, self.fidelity):
+        for state in assembly.states:
+            val = p.get_val(ts + state.name)
+            values[state.name] = val[:, 0] if state.shape == (1,) else val
+        for name in assembly.timeseries:
             val = p.get_val(ts + name)
             values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
-        values['wheel_z'] = values['q_W' if self.fidelity == 'mixed' else 'z_W']
+        values['wheel_z'] = values[assembly.wheel_signal]
         info = {
             'fidelity': self.fidelity,
             'method': 'collocation',
             'scenario': self.scenarios[scenario].name,
         }
         if self.fidelity == 'mixed':
-            info['max_constraint_residual_m'] = self.constraint_residual(values)
+            info['max_constraint_residual_m'] = constraint_residual(assembly, values)
         J = np.array([self.terms(scenario)[k] for k in self.terms_names])
         return Trajectory(t=t, values=values, J=J, info=info)
-
-    def constraint_residual(self, values: dict[str, np.ndarray]) -> float:
-        """Largest position-constraint violation of the modules along a solution [m]."""
-        worst = 0.0
-        axles = self.config.vehicle.axles
-        lay = self.config.layout()
-        poses = mount_poses(lay, values) if self.config.multibody.mount == 'chassis' else None
-        for c, corner in enumerate(lay.corners):
-            mod = self.modules[axles[corner.axle].mechanism]
-            kin = mod.kinematics(
-                values['z_W'][:, c],
-                values['v_W'][:, c],
-                pose=None if poses is None else tuple(p[:, c] for p in poses),
-            )
-            worst = max(worst, mod.constraint_residual(kin.state, kin.pose))
-        return worst
 
     def stats(self) -> dict[str, Any]:
         """Setup and coloring times, whether the coloring came from the cache, and all

@@ -137,4 +137,3 @@ def verified(record: dict[str, Any]) -> bool | None:
     """True/False: the record's verification; None: skipped or not applicable."""
     v = record.get('verification')
     return None if not v else v.get('verified')
-

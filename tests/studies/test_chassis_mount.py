@@ -398,7 +398,8 @@ def test_frame_follows_the_chassis_on_both_sides_of_a_rolling_car():
     every frame point of a left and of a right corner's module moves vertically with the
     chassis point at its lateral position, y = y_c + side (x - x_P), z_C - a θ + y φ
     (small angles: to first order in φ)."""
-    from suspopt.transcription.problem import mount_poses
+    from suspopt.models.forces import MountMotionComp
+    from suspopt.models.mount import MountRotationComp
 
     full = full_car_defaults()
     lay = full.layout()
@@ -413,7 +414,12 @@ def test_frame_follows_the_chassis_on_both_sides_of_a_rolling_car():
         'omega_C': np.zeros(1),
         'p_C': np.zeros(1),
     }
-    poses = mount_poses(lay, values)
+    kw = {'num_nodes': 1, 'corners': lay.n}  # the vehicle assembly's own equations
+    motion = MountMotionComp(a=lay.a, y=lay.y, roll=True, **kw).evaluate(values)
+    rotation = MountRotationComp(side=np.array([c.side for c in lay.corners]), **kw).evaluate(
+        values
+    )
+    poses = (motion['z_M'], motion['v_M'], rotation['psi_M'], rotation['w_M'])
     mk = s.marker_names.index('spring_mount')
     x_mount = s.marker_reference()[mk, 0]
     assert x_mount < mod.mount_point[0]  # inboard of the wheel

@@ -339,7 +339,7 @@ def test_full_car_macpherson_front_double_wishbone_rear_verifies():
     by collocation and verified by time marching."""
     from suspopt.spec.load import config_from_dict, full_car_defaults
     from suspopt.studies.run import evaluate
-    from suspopt.transcription.problem import multibody_modules
+    from suspopt.transcription.vehicle import multibody_modules
     from suspopt.verification.scales import resolve_scales
 
     d = full_car_defaults().to_dict()

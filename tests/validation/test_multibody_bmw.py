@@ -745,7 +745,7 @@ def test_default_full_car_with_the_bmw_corners_verifies():
 
     from suspopt.spec.load import config_from_dict
     from suspopt.studies.run import evaluate
-    from suspopt.transcription.problem import multibody_modules
+    from suspopt.transcription.vehicle import multibody_modules
 
     d = full_car_defaults().to_dict()
     d['maneuver']['horizon'] = 1.0

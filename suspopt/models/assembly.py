@@ -1,0 +1,372 @@
+"""The vehicle assembly: the one description of a vehicle model from which both the
+collocation's OpenMDAO ODE (:class:`suspopt.models.vehicle.VehicleODE`) and the time
+marching's right-hand side (:class:`AssemblyEvaluator`) are built (``docs/model.md``).
+
+A model is an ordered list of :class:`Block` — one component per physical equation
+(paper eqs. 5-13 and beyond), with the names its inputs and outputs take in the vehicle —
+and its states (:class:`State`: what Dymos integrates). Every component computes its
+outputs in :meth:`~suspopt.models.base.NodeComponent.evaluate`, which OpenMDAO's
+``compute`` and the time marching both call, so a new force, metric or mount is written
+once, here. The time-marching verification is therefore independent of the collocation's
+discretization and integrator, not of the equations.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
+from suspopt.models.forces import (
+    AntiRollBarComp,
+    MountMotionComp,
+    SuspensionForceComp,
+    TyreForceComp,
+    WheelLoadComp,
+)
+from suspopt.models.layout import VehicleLayout
+from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
+from suspopt.models.objective import ObjectiveIntegrandComp
+from suspopt.models.road_input import RoadInputComp
+from suspopt.models.settings import SuspensionSettingsComp
+from suspopt.models.wheel import WheelDynamicsComp
+from suspopt.multibody.components import (
+    ChassisMountDynamicsComp,
+    SuspensionDynamicsComp,
+    SuspensionKinematicsComp,
+)
+
+#: the two models of the paper: the low-fidelity vehicle, and the mixed-fidelity one
+#: with a multibody module at every corner
+FIDELITIES = ('low', 'mixed')
+
+
+@dataclass(frozen=True)
+class VehicleSpec:
+    """Everything the model of one vehicle in one scenario needs (plain values)."""
+
+    layout: VehicleLayout
+    M: float
+    I: float
+    I_x: float
+    m: np.ndarray
+    k_T: np.ndarray
+    design: tuple[str, ...]
+    bars: tuple[tuple[int, ...], tuple[int, ...], tuple[float, ...]]
+    tracks: tuple
+    speed: float
+    modules: tuple = ()
+    fd_form: str = 'forward'
+    fd_step: float = 1e-6
+    mount: str = 'ground'
+
+    @property
+    def chassis_states(self) -> tuple[str, ...]:
+        out = ('z_C', 'v_C', 'theta_C', 'omega_C')
+        return out + (('phi_C', 'p_C') if self.layout.has_roll else ())
+
+    @property
+    def side(self) -> np.ndarray:
+        return np.array([c.side for c in self.layout.corners], dtype=float)
+
+
+@dataclass(frozen=True)
+class State:
+    """A state of the model: its rate (a signal of the assembly), units, a typical
+    magnitude ``ref`` (scales the NLP, changes no result) and its shape at one node."""
+
+    name: str
+    rate: str
+    units: str
+    ref: float
+    shape: tuple[int, ...]
+
+
+class Evaluates(Protocol):
+    """What a block's component offers beyond OpenMDAO: its equation as a function."""
+
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class Block:
+    """One equation of the vehicle: a component made for a number of nodes, and the names
+    of those of its inputs and outputs that are called otherwise in the vehicle
+    (``(local, vehicle)`` pairs; every other one keeps its own name)."""
+
+    name: str
+    make: Callable[[int], Any]
+    inputs: tuple[tuple[str, str], ...] = ()
+    outputs: tuple[tuple[str, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class VehicleAssembly:
+    """A vehicle model: its blocks in evaluation order, its states and the signals a
+    trajectory records (:func:`assemble`)."""
+
+    spec: VehicleSpec
+    fidelity: str
+    blocks: tuple[Block, ...]
+    states: tuple[State, ...]
+    timeseries: tuple[str, ...]
+
+    @property
+    def wheel_signal(self) -> str:
+        """The wheel's vertical displacement: the state (low) or the linkage's output."""
+        return 'q_W' if self.fidelity == 'mixed' else 'z_W'
+
+
+def states(spec: VehicleSpec) -> tuple[State, ...]:
+    """The states (paper eq. 2): the chassis' heave, pitch (and roll) and every wheel's
+    travel, each with its rate; ``ref`` is a typical magnitude over a road feature of a
+    few centimetres."""
+    nc = (spec.layout.n,)
+    out = [
+        State('z_C', 'v_C', 'm', 0.02, (1,)),
+        State('v_C', 'zdd_C', 'm/s', 0.2, (1,)),
+        State('theta_C', 'omega_C', 'rad', 0.01, (1,)),
+        State('omega_C', 'thdd_C', 'rad/s', 0.2, (1,)),
+    ]
+    if spec.layout.has_roll:
+        out += [
+            State('phi_C', 'p_C', 'rad', 0.01, (1,)),
+            State('p_C', 'phidd_C', 'rad/s', 0.2, (1,)),
+        ]
+    out += [State('z_W', 'v_W', 'm', 0.05, nc), State('v_W', 'zdd_W', 'm/s', 1.0, nc)]
+    return tuple(out)
+
+
+def assemble(spec: VehicleSpec, fidelity: str) -> VehicleAssembly:
+    """The vehicle model of ``spec`` in ``fidelity``: road, settings, the chassis above the
+    corners, the suspension and wheels (low fidelity: eqs. 7-10; mixed: a multibody module
+    per corner, eqs. 11-13, mounted on the ground or on the chassis), the chassis (eqs. 5-6,
+    roll) and the objective's integrands (eq. 4)."""
+    if fidelity not in FIDELITIES:
+        raise ValueError(f'fidelity must be one of {FIDELITIES}, got {fidelity!r}')
+    blocks = list(_common(spec))
+    if fidelity == 'low':
+        blocks += _low_fidelity(spec)
+    elif spec.mount == 'chassis':
+        blocks += _chassis_mounted(spec)
+    else:
+        blocks += _ground_mounted(spec)
+    wheel = 'q_W' if fidelity == 'mixed' else 'z_W'
+    roll = spec.layout.has_roll
+    blocks.append(
+        Block(
+            'objective_integrand',
+            lambda nn: ObjectiveIntegrandComp(num_nodes=nn, corners=spec.layout.n, roll=roll),
+            inputs=(('wheel_z', wheel),),
+        )
+    )
+    return VehicleAssembly(
+        spec=spec,
+        fidelity=fidelity,
+        blocks=tuple(blocks),
+        states=states(spec),
+        timeseries=_timeseries(spec, fidelity),
+    )
+
+
+def _timeseries(spec: VehicleSpec, fidelity: str) -> tuple[str, ...]:
+    """Signals recorded along the trajectory (beyond the states)."""
+    chassis = ('zdd_C', 'thdd_C') + (('phidd_C',) if spec.layout.has_roll else ())
+    forces = ('zdd_W', 'F_S', 'F_T', 'delta', 'z_M') + (('F_R',) if spec.bars[0] else ())
+    mixed: tuple[str, ...] = ('q_W', 'reactions') if fidelity == 'mixed' else ()
+    if fidelity == 'mixed' and spec.mount == 'chassis':
+        mixed += ('F_M',)
+    return chassis + forces + mixed
+
+
+def _kw(spec: VehicleSpec, nn: int) -> dict[str, int]:
+    return {'num_nodes': nn, 'corners': spec.layout.n}
+
+
+def _common(spec: VehicleSpec) -> Iterator[Block]:
+    lay = spec.layout
+    yield Block(
+        'road',
+        lambda nn: RoadInputComp(
+            num_nodes=nn,
+            tracks=spec.tracks,
+            speed=spec.speed,
+            offsets=lay.offsets(),
+            track_of=tuple(c.track for c in lay.corners),
+        ),
+    )
+    yield Block(
+        'settings', lambda nn: SuspensionSettingsComp(design=spec.design, labels=lay.labels)
+    )
+    yield Block(
+        'mount',
+        lambda nn: MountMotionComp(a=lay.a, y=lay.y, roll=lay.has_roll, **_kw(spec, nn)),
+    )
+
+
+def _anti_roll(spec: VehicleSpec, wheel: str) -> Iterator[Block]:
+    left, right, track = spec.bars
+    if left:
+        yield Block(
+            'anti_roll',
+            lambda nn: AntiRollBarComp(left=left, right=right, track=track, **_kw(spec, nn)),
+            inputs=(('z_W', wheel),),
+        )
+
+
+def _forces(spec: VehicleSpec, *names: str) -> tuple[str, ...]:
+    """The suspension's forces on the chassis per corner: ``names`` and the bars'."""
+    return names + (('F_R',) if spec.bars[0] else ())
+
+
+def _chassis(spec: VehicleSpec, forces: tuple[str, ...]) -> Iterator[Block]:
+    lay = spec.layout
+    yield Block(
+        'chassis_heave', lambda nn: ChassisHeaveComp(M=spec.M, forces=forces, **_kw(spec, nn))
+    )
+    yield Block(
+        'chassis_pitch',
+        lambda nn: ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **_kw(spec, nn)),
+    )
+    if lay.has_roll:
+        yield Block(
+            'chassis_roll',
+            lambda nn: ChassisRollComp(y=lay.y, I_x=spec.I_x, forces=forces, **_kw(spec, nn)),
+        )
+
+
+def _low_fidelity(spec: VehicleSpec) -> list[Block]:
+    """The low-fidelity suspension and wheels: eqs. 9, 10, 7-8 (and the bars)."""
+    forces = _forces(spec, 'F_S')
+    return [
+        Block('suspension', lambda nn: SuspensionForceComp(**_kw(spec, nn))),
+        *_anti_roll(spec, 'z_W'),
+        Block('tyre', lambda nn: TyreForceComp(k_T=spec.k_T, **_kw(spec, nn))),
+        Block('wheel', lambda nn: WheelDynamicsComp(m=spec.m, forces=forces, **_kw(spec, nn))),
+        *_chassis(spec, forces),
+    ]
+
+
+def _black_box(spec: VehicleSpec) -> dict[str, Any]:
+    return {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
+
+
+def _linkage_kinematics(spec: VehicleSpec) -> Iterator[Block]:
+    """The multibody modules' position and velocity analysis (black box), the tyre
+    (eq. 13) and the wheel load the linkage carries."""
+    lay = spec.layout
+    chassis = spec.mount == 'chassis'
+    if chassis and lay.has_roll:
+        yield Block('mount_rotation', lambda nn: MountRotationComp(side=spec.side, **_kw(spec, nn)))
+    yield Block(
+        'kinematics',
+        lambda nn: SuspensionKinematicsComp(
+            mount=spec.mount, roll=lay.has_roll, **_black_box(spec), **_kw(spec, nn)
+        ),
+    )
+    yield from _anti_roll(spec, 'q_W')
+    yield Block(
+        'tyre', lambda nn: TyreForceComp(k_T=spec.k_T, **_kw(spec, nn)), inputs=(('z_W', 'q_W'),)
+    )
+    if spec.bars[0]:
+        yield Block('wheel_load', lambda nn: WheelLoadComp(**_kw(spec, nn)))
+
+
+def _wheel_load(spec: VehicleSpec) -> tuple[tuple[str, str], ...]:
+    return (('F_T', 'F_W'),) if spec.bars[0] else ()
+
+
+def _ground_mounted(spec: VehicleSpec) -> list[Block]:
+    """Mixed fidelity, the paper's coupling (frame on the ground): the dynamic analysis
+    (eq. 11) gives the wheel travel's acceleration and the spring force of eq. 12."""
+    return [
+        *_linkage_kinematics(spec),
+        Block(
+            'dynamics',
+            lambda nn: SuspensionDynamicsComp(**_black_box(spec), **_kw(spec, nn)),
+            inputs=_wheel_load(spec),
+        ),
+        *_chassis(spec, _forces(spec, 'F_S')),
+    ]
+
+
+def _chassis_mounted(spec: VehicleSpec) -> list[Block]:
+    """Mixed fidelity with every frame on the chassis: the modules' response at zero and
+    per unit mount acceleration, the chassis solved with the linkage's reactions, then the
+    modules' outputs at the solved accelerations (:mod:`suspopt.models.mount`)."""
+    lay = spec.layout
+    roll = lay.has_roll
+    width = ChassisMountDynamicsComp(modules=spec.modules, num_nodes=1).width
+    mount = {'a': lay.a, 'y': lay.y, 'roll': roll, 'side': spec.side, 'width': width}
+    forces = _forces(spec)
+    return [
+        *_linkage_kinematics(spec),
+        Block(
+            'dynamics',
+            lambda nn: ChassisMountDynamicsComp(roll=roll, **_black_box(spec), **_kw(spec, nn)),
+            inputs=_wheel_load(spec),
+        ),
+        Block(
+            'chassis',
+            lambda nn: ChassisMountComp(
+                M=spec.M, I=spec.I, I_x=spec.I_x, forces=forces, **mount, **_kw(spec, nn)
+            ),
+        ),
+        Block('mount_response', lambda nn: MountResponseComp(**mount, **_kw(spec, nn))),
+    ]
+
+
+class _Signals(Mapping[str, Any]):
+    """A block's view of the vehicle's signals, under the block's own input names."""
+
+    def __init__(self, signals: Mapping[str, Any], names: Mapping[str, str]):
+        self._signals, self._names = signals, names
+
+    def __getitem__(self, key: str) -> Any:
+        return self._signals[self._names.get(key, key)]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._signals)
+
+    def __len__(self) -> int:
+        return len(self._signals)
+
+
+def constraint_residual(assembly: VehicleAssembly, values: Mapping[str, Any]) -> float:
+    """Largest position-constraint violation [m] of the multibody modules along states
+    ``values`` (the chassis' and the wheels'), their mounts' poses from the assembly's own
+    blocks."""
+    signals = dict(values)
+    for block in assembly.blocks:
+        if block.name in ('mount', 'mount_rotation', 'kinematics'):
+            comp = block.make(1)
+            view = _Signals(signals, dict(block.inputs))
+            if block.name == 'kinematics':
+                return float(comp.constraint_residual(view))
+            signals.update(comp.evaluate(view))
+    raise ValueError('the assembly has no multibody modules')
+
+
+class AssemblyEvaluator:
+    """The vehicle assembly as a function of its signals: given the states (chassis (N,),
+    per corner (N, corners)), ``time`` (N,) and the design variables, every block's
+    equation in order adds its outputs (the time marching's right-hand side)."""
+
+    def __init__(self, assembly: VehicleAssembly):
+        self.assembly = assembly
+        self._steps = [
+            (block.make(1), dict(block.inputs), dict(block.outputs)) for block in assembly.blocks
+        ]
+
+    def __call__(self, signals: dict[str, Any]) -> dict[str, Any]:
+        for comp, inputs, outputs in self._steps:
+            for name, value in comp.evaluate(_Signals(signals, inputs)).items():
+                signals[outputs.get(name, name)] = value
+        return signals
+
+    def components(self) -> Iterator[Any]:
+        """The blocks' components (one instance each, shared by every call)."""
+        return (comp for comp, _, _ in self._steps)
