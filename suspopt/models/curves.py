@@ -59,6 +59,7 @@ outside the table the curve continues along the end tangents (C¹).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -340,104 +341,137 @@ def _min_slope(coefficients: Sequence[float], lo: float, hi: float) -> tuple[flo
 
 
 # ---------------------------------------------------------------- tables (PCHIP)
-def _edge_slope(h0, h1, m0, m1):
+def _edge_slope(h0: float, h1: float, m0: np.ndarray, m1: np.ndarray):
     """End slope of PCHIP (one-sided three-point estimate, shape-preserving) and its
     derivatives with respect to ``m0``, ``m1``."""
-    d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
-    d0 = np.full_like(d, (2.0 * h0 + h1) / (h0 + h1))
-    d1 = np.full_like(d, -h0 / (h0 + h1))
-    zero = np.sign(d) != np.sign(m0)
-    clip = ~zero & (np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0))
-    d = np.where(zero, 0.0, np.where(clip, 3.0 * m0, d))
-    d0 = np.where(zero, 0.0, np.where(clip, 3.0, d0))
-    d1 = np.where(zero | clip, 0.0, d1)
-    return d, d0, d1
+    a, b = (2.0 * h0 + h1) / (h0 + h1), -h0 / (h0 + h1)
+    d = a * m0 + b * m1
+    zero = d * m0 < 0.0  # the estimate's sign is not the secant's (the secant is not 0)
+    if m0.ndim == 0 or m0.size:
+        clip = ~zero & (m0 * m1 < 0.0) & (np.abs(d) > 3.0 * np.abs(m0))
+        if not (np.any(zero) or np.any(clip)):
+            return d, a, b
+        d = np.where(zero, 0.0, np.where(clip, 3.0 * m0, d))
+        return d, np.where(zero, 0.0, np.where(clip, 3.0, a)), np.where(zero | clip, 0.0, b)
+    return d, a, b
 
 
-def pchip_slopes(xs: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """PCHIP's slopes ``d`` (…, n) at the nodes ``xs`` (n,) of data ``y`` (…, n) and their
-    Jacobian ``∂d/∂y`` (…, n, n) (Fritsch–Carlson; SciPy's ``PchipInterpolator``)."""
-    h = np.diff(xs)
-    n = xs.size
-    m = np.diff(y, axis=-1) / h  # (…, n-1)
-    dm = np.zeros(y.shape + (n - 1,))  # ∂d_k/∂m_j
-    d = np.zeros_like(y)
-    if n == 2:
-        d[..., 0] = d[..., 1] = m[..., 0]
-        dm[..., 0, 0] = dm[..., 1, 0] = 1.0
-    else:
-        ma, mb = m[..., :-1], m[..., 1:]
-        w1, w2 = 2.0 * h[1:] + h[:-1], h[1:] + 2.0 * h[:-1]
-        ok = (np.sign(ma) == np.sign(mb)) & (ma != 0.0) & (mb != 0.0)
-        with np.errstate(divide='ignore', invalid='ignore'):
-            den = w1 / ma + w2 / mb
-            d_in = np.where(ok, (w1 + w2) / den, 0.0)
-            da = np.where(ok, (w1 + w2) * w1 / (ma * ma * den * den), 0.0)
-            db = np.where(ok, (w1 + w2) * w2 / (mb * mb * den * den), 0.0)
-        k = np.arange(1, n - 1)
-        d[..., 1:-1] = d_in
-        dm[..., k, k - 1] = da
-        dm[..., k, k] = db
-        d[..., 0], dm[..., 0, 0], dm[..., 0, 1] = _edge_slope(h[0], h[1], m[..., 0], m[..., 1])
-        d[..., -1], dm[..., -1, -1], dm[..., -1, -2] = _edge_slope(
-            h[-1], h[-2], m[..., -1], m[..., -2]
-        )
-    M = np.zeros((n - 1, n))  # ∂m/∂y
+@functools.lru_cache(maxsize=64)
+def _grid(xs: tuple[float, ...]) -> tuple[np.ndarray, ...]:
+    """What PCHIP on the nodes ``xs`` needs besides the data: the nodes, the spacings ``h``,
+    the weights of the interior slopes, ``∂m/∂y`` (n-1, n) and the start of each of the
+    n + 1 segments (the extrapolation before the first node, the n - 1 intervals, the
+    extrapolation after the last)."""
+    x = np.array(xs, dtype=float)
+    n = x.size
+    h = np.diff(x)
+    M = np.zeros((n - 1, n))
     M[np.arange(n - 1), np.arange(n - 1)] = -1.0 / h
     M[np.arange(n - 1), np.arange(1, n)] = 1.0 / h
-    return d, dm @ M
+    starts = np.concatenate([x[:1], x[:-1], x[-1:]])
+    out = (x, h, 2.0 * h[1:] + h[:-1], h[1:] + 2.0 * h[:-1], M, starts)
+    for arr in out:
+        arr.flags.writeable = False
+    return out
+
+
+def pchip_slopes(
+    xs: np.ndarray, y: np.ndarray, jacobian: bool = True
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """PCHIP's slopes ``d`` (…, n) at the nodes ``xs`` (n,) of data ``y`` (…, n) and (with
+    ``jacobian``) ``∂d/∂y`` (…, n, n) (Fritsch–Carlson; SciPy's ``PchipInterpolator``)."""
+    _, h, w1, w2, M, _ = _grid(tuple(float(v) for v in xs))
+    n = h.size + 1
+    m = np.diff(y, axis=-1) / h  # (…, n-1)
+    dm = np.zeros(y.shape + (n - 1,)) if jacobian else None  # ∂d_k/∂m_j
+    d = np.empty(y.shape)
+    if n == 2:
+        d[..., 0] = d[..., 1] = m[..., 0]
+        if dm is not None:
+            dm[..., 0, 0] = dm[..., 1, 0] = 1.0
+    else:
+        ma, mb = m[..., :-1], m[..., 1:]
+        ok = (ma * mb) > 0.0  # same sign, neither zero (else the slope is 0)
+        every = bool(np.all(ok))
+        if not every:
+            ma, mb = np.where(ok, ma, 1.0), np.where(ok, mb, 1.0)
+        den = w1 / ma + w2 / mb
+        inner = (w1 + w2) / den
+        d[..., 1:-1] = inner if every else np.where(ok, inner, 0.0)
+        if dm is not None:
+            k = np.arange(1, n - 1)
+            dm[..., k, k - 1] = np.where(ok, (w1 + w2) * w1 / (ma * ma * den * den), 0.0)
+            dm[..., k, k] = np.where(ok, (w1 + w2) * w2 / (mb * mb * den * den), 0.0)
+        first = _edge_slope(h[0], h[1], m[..., 0], m[..., 1])
+        last = _edge_slope(h[-1], h[-2], m[..., -1], m[..., -2])
+        d[..., 0], d[..., -1] = first[0], last[0]
+        if dm is not None:
+            dm[..., 0, 0], dm[..., 0, 1] = first[1], first[2]
+            dm[..., -1, -1], dm[..., -1, -2] = last[1], last[2]
+    return d, (None if dm is None else dm @ M)
+
+
+def _segment_coefficients(h, y, d, m):
+    """Monomial coefficients ``c_0 .. c_3`` of the n + 1 segments in ``s = x - start``
+    (…, n + 1, 4): the end tangents outside, the cubic Hermite interpolant inside,
+    ``c_2 = (3 m_k - 2 d_k - d_{k+1}) / h_k``, ``c_3 = (d_k + d_{k+1} - 2 m_k) / h_k²``."""
+    c = np.zeros(y.shape[:-1] + (y.shape[-1] + 1, 4))
+    c[..., 0, 0], c[..., 0, 1] = y[..., 0], d[..., 0]
+    c[..., -1, 0], c[..., -1, 1] = y[..., -1], d[..., -1]
+    c[..., 1:-1, 0], c[..., 1:-1, 1] = y[..., :-1], d[..., :-1]
+    c[..., 1:-1, 2] = (3.0 * m - 2.0 * d[..., :-1] - d[..., 1:]) / h
+    c[..., 1:-1, 3] = (d[..., :-1] + d[..., 1:] - 2.0 * m) / (h * h)
+    return c
+
+
+def _take(c: np.ndarray, j: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``c[..., j, :]`` (c: P + (n + 1, k) with P broadcasting to ``shape``; j: ``shape``)."""
+    if c.ndim == 2:
+        return c[j]
+    c = np.broadcast_to(c, shape + c.shape[-2:])
+    return np.take_along_axis(c, j[..., None, None], -2)[..., 0, :]
 
 
 def _pchip(xs: np.ndarray, x: np.ndarray, y: np.ndarray, partials: bool, integral: bool = False):
     """PCHIP through (xs, y) at ``x``, continued along the end tangents: value, slope and
     ``∂value/∂y`` (…, n) (or, with ``integral``, ``∫_{xs[0]}^x``)."""
-    n = xs.size
+    nodes, h, _, _, M, starts = _grid(tuple(float(v) for v in xs))
+    n = nodes.size
     shape = np.broadcast_shapes(x.shape, y.shape[:-1])
     x = np.broadcast_to(x, shape)
-    y = np.broadcast_to(y, shape + (n,))
-    d, D = pchip_slopes(xs, y)
-    k = np.clip(np.searchsorted(xs, x, side='right') - 1, 0, n - 2)
-    h = (xs[1:] - xs[:-1])[k]
-    t = (x - xs[k]) / h
-    left, right = x < xs[0], x > xs[-1]
-    kk = k[..., None]
-    y0, y1 = (np.take_along_axis(y, kk + i, -1)[..., 0] for i in (0, 1))
-    d0, d1 = (np.take_along_axis(d, kk + i, -1)[..., 0] for i in (0, 1))
-    t2, t3 = t * t, t * t * t
-    if integral:  # ∫ of the Hermite basis from 0 to t, times h; plus the whole intervals
-        a00, a10 = 0.5 * t2 * t2 - t3 + t, 0.25 * t2 * t2 - 2.0 * t3 / 3.0 + 0.5 * t2
-        a01, a11 = -0.5 * t2 * t2 + t3, 0.25 * t2 * t2 - t3 / 3.0
-        hh = np.diff(xs)
-        whole = hh * (0.5 * (y[..., :-1] + y[..., 1:]) + hh * (d[..., :-1] - d[..., 1:]) / 12.0)
-        before = np.concatenate([np.zeros(shape + (1,)), np.cumsum(whole, -1)], -1)
-        val = np.take_along_axis(before, kk, -1)[..., 0] + h * (
-            a00 * y0 + a10 * h * d0 + a01 * y1 + a11 * h * d1
+    d, D = pchip_slopes(nodes, y, jacobian=partials)  # at the parameters' own shape
+    m = np.diff(y, axis=-1) / h
+    c = _segment_coefficients(h, y, d, m)
+    j = np.searchsorted(nodes, x, side='right')  # 0: before the table, n: after it
+    s = x - starts[j]
+    cj = _take(c, j, shape)
+    if integral:
+        whole = h * (
+            c[..., 1:-1, 0]
+            + h * (c[..., 1:-1, 1] / 2 + h * (c[..., 1:-1, 2] / 3 + h * c[..., 1:-1, 3] / 4))
         )
-        s = x - xs[0]
-        val = np.where(left, y[..., 0] * s + 0.5 * d[..., 0] * s * s, val)
-        s = x - xs[-1]
-        val = np.where(right, before[..., -1] + y[..., -1] * s + 0.5 * d[..., -1] * s * s, val)
-        return val
-    h00, h10, h01, h11 = 2 * t3 - 3 * t2 + 1, t3 - 2 * t2 + t, -2 * t3 + 3 * t2, t3 - t2
-    value = h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1
-    slope = (6 * t2 - 6 * t) * (y0 - y1) / h + (3 * t2 - 4 * t + 1) * d0 + (3 * t2 - 2 * t) * d1
-    value = np.where(left, y[..., 0] + d[..., 0] * (x - xs[0]), value)
-    value = np.where(right, y[..., -1] + d[..., -1] * (x - xs[-1]), value)
-    slope = np.where(left, d[..., 0], np.where(right, d[..., -1], slope))
+        before = np.zeros(c.shape[:-1])
+        before[..., 2:] = np.cumsum(whole, -1)
+        b = _take(before[..., None], j, shape)[..., 0]
+        return b + s * (
+            cj[..., 0] + s * (cj[..., 1] / 2 + s * (cj[..., 2] / 3 + s * cj[..., 3] / 4))
+        )
+    value = cj[..., 0] + s * (cj[..., 1] + s * (cj[..., 2] + s * cj[..., 3]))
+    slope = cj[..., 1] + s * (2.0 * cj[..., 2] + 3.0 * s * cj[..., 3])
     dv = None
-    if partials:
-        e = np.arange(n)
-        Dk = np.take_along_axis(D, kk[..., None] + np.zeros((1, n), dtype=int), -2)[..., 0, :]
-        Dk1 = np.take_along_axis(D, kk[..., None] + 1 + np.zeros((1, n), dtype=int), -2)[..., 0, :]
-        dv = (
-            h00[..., None] * (e == kk)
-            + h01[..., None] * (e == kk + 1)
-            + (h * h10)[..., None] * Dk
-            + (h * h11)[..., None] * Dk1
-        )
-        lv = (e == 0) + (x - xs[0])[..., None] * D[..., 0, :]
-        rv = (e == n - 1) + (x - xs[-1])[..., None] * D[..., -1, :]
-        dv = np.where(left[..., None], lv, np.where(right[..., None], rv, dv))
+    if D is not None:
+        # ∂c/∂y (…, n + 1, 4, n) from ∂d/∂y = D and ∂m/∂y = M
+        E = np.eye(n)
+        dc = np.zeros(D.shape[:-2] + (n + 1, 4, n))
+        dc[..., 0, 0, :], dc[..., 0, 1, :] = E[0], D[..., 0, :]
+        dc[..., -1, 0, :], dc[..., -1, 1, :] = E[-1], D[..., -1, :]
+        dc[..., 1:-1, 0, :], dc[..., 1:-1, 1, :] = E[:-1], D[..., :-1, :]
+        hh = h[:, None]
+        dc[..., 1:-1, 2, :] = (3.0 * M - 2.0 * D[..., :-1, :] - D[..., 1:, :]) / hh
+        dc[..., 1:-1, 3, :] = (D[..., :-1, :] + D[..., 1:, :] - 2.0 * M) / (hh * hh)
+        dcj = _take(dc.reshape(dc.shape[:-2] + (4 * n,)), j, shape).reshape(shape + (4, n))
+        sv = s[..., None]
+        dv = dcj[..., 0, :] + sv * (dcj[..., 1, :] + sv * (dcj[..., 2, :] + sv * dcj[..., 3, :]))
     return value, slope, dv
 
 
@@ -832,24 +866,41 @@ class SpringDamperUnit:
                 out[name] = float(v)
         return out
 
+    @functools.cached_property
+    def _layout(self) -> list[tuple[str, list[str]]]:
+        return [(p.name, p.scalar_names()) for p in self.parameters()]
+
     def gather(self, scalars: Mapping[str, ArrayLike]) -> dict[str, np.ndarray]:
         """Parameter arrays from scalar entries (:meth:`scalar_parameters` names; missing:
         the unit's values); a table's points stacked on a trailing axis."""
-        own = self.scalar_parameters()
+        own: dict[str, float] | None = None
         out = {}
-        for p in self.parameters():
-            vals = [np.asarray(scalars.get(n, own[n]), dtype=float) for n in p.scalar_names()]
-            out[p.name] = vals[0] if p.size == 1 else np.stack(np.broadcast_arrays(*vals), -1)
+        for name, scalar_names in self._layout:
+            if not all(n in scalars for n in scalar_names):
+                own = self.scalar_parameters() if own is None else own
+            vals = [
+                np.asarray(scalars[n] if n in scalars else own[n], dtype=float)  # type: ignore[index]
+                for n in scalar_names
+            ]
+            if len(vals) == 1:
+                out[name] = vals[0]
+            elif all(v.shape == vals[0].shape for v in vals):
+                out[name] = np.stack(vals, -1)
+            else:
+                out[name] = np.stack(np.broadcast_arrays(*vals), -1)
         return out
 
     def structure(self) -> tuple:
         return tuple((s, c.structure()) for s, c in self.curves().items())
 
+    @functools.cached_property
+    def _names(self) -> dict[int, list[str]]:
+        return {id(c): [p.name for p in c.parameters()] for c in self.curves().values()}
+
     def _split(self, params: Mapping[str, ArrayLike] | None, curve: Curve):
         if not params:
             return None
-        names = {p.name for p in curve.parameters()}
-        return {k: v for k, v in params.items() if k in names}
+        return {k: params[k] for k in self._names[id(curve)] if k in params}
 
     def force(
         self,
