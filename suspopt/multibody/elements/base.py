@@ -588,17 +588,14 @@ class ScalarSpringGroup(ForceGroup):
         return ell, ell_d, f, grad
 
     def _curve_tension(self, ell, grad, qde, values):
-        """:meth:`tension` of a group with curve elements (see the class docstring)."""
+        """:meth:`tension` of a group with curve elements (see the class docstring);
+        without velocities the tension of a damped element is NaN (the spring queries of
+        a pose; the generalized forces refuse it, :meth:`forces`)."""
         e = ell - self.free_length + values['offset']
         f = values['stiffness'] * e + values['preload']
         if qde is None:
-            if np.any(values['damping'] != 0.0) or any(
-                not _no_damper(unit, values, idx) for unit, idx, _ in self.curve_batches
-            ):
-                raise ValueError(
-                    f'force elements {self.names} have damping: the velocities qd are needed'
-                )
             ell_d = np.full_like(ell, np.nan)
+            f = np.where(values['damping'] != 0.0, np.nan, f)
         else:
             ell_d = self.rate(grad, qde)
             f = f + values['damping'] * (ell_d + values['offset_rate'])
@@ -607,17 +604,34 @@ class ScalarSpringGroup(ForceGroup):
             x = -e[:, idx]
             if qde is None:
                 F = unit.elastic_force(x, params)[0]
+                if not _no_damper(unit, values, idx):
+                    F = F + np.nan
             else:
                 v = -(ell_d[:, idx] + values['offset_rate'][:, idx])
                 F = unit.force(x, v, params, partials=False).value
             f[:, idx] -= F
         return ell, ell_d, f, grad
 
+    def _check_velocities(self, qde, values) -> None:
+        if (
+            qde is None
+            and self.curve_batches
+            and (
+                np.any(values['damping'] != 0.0)
+                or any(not _no_damper(u, values, idx) for u, idx, _ in self.curve_batches)
+            )
+        ):
+            raise ValueError(
+                f'force elements {self.names} have damping: the velocities qd are needed'
+            )
+
     def generalized_force(self, qe, qde, values):
+        self._check_velocities(qde, values)
         _, _, f, grad = self.tension(qe, qde, values)
         return -f[..., None, None] * grad
 
     def forces(self, qe, qde, values, geometry=None):
+        self._check_velocities(qde, values)
         if type(self).generalized_force is not ScalarSpringGroup.generalized_force:
             return self.generalized_force(qe, qde, values), None
         t = self.tension(qe, qde, values, geometry)
