@@ -988,8 +988,9 @@ class SpringDamperUnit:
             rebound_stop = {gap = 0.08, coefficients = [5.0e6]}
 
         Without ``spring_curve`` the spring is linear, ``stiffness`` [N/m]; without
-        ``damper_curve`` the damper is linear, ``damping`` [N s/m] (0 if None). Raises
-        :class:`~suspopt.errors.ConfigError` listing every problem (keys ``key.<slot>.*``)."""
+        ``damper_curve`` the damper is linear, ``damping`` [N s/m] (0 if None; the caller
+        checks those two under its own keys). Raises :class:`~suspopt.errors.ConfigError`
+        listing every problem of the subtables (keys ``key.<slot>.*``)."""
         errors: list[str] = []
 
         def where(slot: str) -> str:
@@ -1081,7 +1082,13 @@ class SpringDamperUnit:
             )
         unit = cls(spring, damper, stops[0], stops[1])
         if not errors:
-            errors = unit.problems(key, travel)
+            # the curves given (a linear spring or damper from stiffness or damping is the
+            # caller's to check, under its own key)
+            errors = [
+                line
+                for line in unit.problems(key, travel)
+                if any(line.startswith(f'{where(slot)}.') for slot in SLOTS if slot in data)
+            ]
         if errors:
             raise ConfigError(errors)
         return unit
