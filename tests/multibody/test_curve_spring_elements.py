@@ -207,3 +207,32 @@ def test_black_box_differences_a_curve_parameter_at_a_cost_independent_of_the_no
             scale = np.max(np.abs(exact[name])) + 1e-9
             np.testing.assert_allclose(fd, exact[name], atol=1e-4 * scale, err_msg=name)
     assert calls[4] == calls[16] > 0, calls
+
+
+@pytest.mark.parametrize('mount', ['ground', 'chassis'])
+def test_parallelogram_spring_force_closed_form(mount):
+    """The paper's parallelogram with a curve spring: the spring point travels
+    ``m = 0.15/0.33`` of the wheel, so the spring's compression is ``m z_W - z_M`` with the
+    ground mount (the chassis' motion along the spring, eq. 12) and ``m (z_W - z_M)`` with
+    the chassis mount (the frame carries the linkage): ``F_S = F(x, v)`` of the curves."""
+    mech = mechanism_from_dict(with_curves('double_wishbone', CURVES), suspension=True)
+    mod = SuspensionModule(mech, mount=mount)
+    unit: SpringDamperUnit = mech.force('spring').curves
+    m = 0.15 / 0.33
+    rng = np.random.default_rng(1)
+    n = 30
+    z_W, v_W = rng.uniform(-0.08, 0.08, n), rng.uniform(-0.6, 0.6, n)
+    z_M, v_M = rng.uniform(-0.03, 0.03, n), rng.uniform(-0.3, 0.3, n)
+    settings = {'k_S3': np.full(n, 1.0e7), 'rebound_gap': np.full(n, 0.03)}
+    params = {'k_S': 26000.0, **settings}
+    if mount == 'ground':
+        kin = mod.kinematics(z_W, v_W)
+        F_S = mod.dynamics(kin.state, z_M, v_M, np.full(n, 26000.0), None, np.zeros(n), settings)[1]
+        x, v = m * z_W - z_M, m * v_W - v_M
+    else:
+        zero = np.zeros(n)
+        kin = mod.kinematics(z_W, v_W, pose=(z_M, v_M, zero, zero))
+        F_S = mod.mount_response(kin, np.full(n, 26000.0), None, zero, settings=settings)[1]
+        x, v = m * (z_W - z_M), m * (v_W - v_M)
+    np.testing.assert_allclose(F_S, unit.force(x, v, params, partials=False).value, rtol=1e-10)
+    assert np.max(np.abs(F_S)) > 1000.0
