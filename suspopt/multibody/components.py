@@ -18,6 +18,7 @@ The module is queried in two steps, as one would query a commercial multibody co
   and its rate → vertical displacement and velocity of the wheel (``q^z_W``, eq. 13);
 * :class:`SuspensionDynamicsComp` — dynamic analysis: the same state, the chassis mount's
   vertical motion ``z_M, v_M``, the tyre force ``F_T`` and the spring settings ``k_S, c_S``
+  (and, for a spring with curves, its curve parameters: one per-corner input each)
   → wheel-travel acceleration from the augmented system (eq. 11), the spring's vertical
   force on the chassis ``F_S`` (eq. 12 along the spring's line of action) and the joint
   reactions.
@@ -206,6 +207,31 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
         return worst
 
 
+def curve_setting_inputs(comp: NodewiseBlackBox) -> tuple[str, ...]:
+    """Add the per-corner inputs of the springs' curve parameters (every module's
+    :attr:`~suspopt.multibody.suspension.SuspensionModule.settings` besides ``k_S``,
+    ``c_S``, default: the first file's value); their names (none for linear springs)."""
+    nc = comp.options['corners']
+    names: dict[str, str] = {}
+    defaults: dict[str, float] = {}
+    for mod in comp.options['modules']:
+        for n in mod.settings:
+            if n not in ('k_S', 'c_S') and n not in names:
+                names[n] = mod.setting_units[n]
+                defaults[n] = mod.unit.scalar_parameters()[n]
+    for n, units in names.items():
+        comp.add_input(n, val=defaults[n], shape=(nc,), units=units, desc='spring curve parameter')
+    return tuple(names)
+
+
+def curve_settings(
+    mod: SuspensionModule, values: dict[str, np.ndarray], names: tuple[str, ...], cols, nn: int
+) -> dict[str, np.ndarray] | None:
+    """The curve settings of the corners ``cols`` that ``mod``'s spring has, per state."""
+    out = {n: np.tile(values[n][cols], nn) for n in names if n in mod.settings}
+    return out or None
+
+
 def mount_pose_inputs(comp: NodewiseBlackBox) -> list[str]:
     """Add the mount pose inputs of a chassis-mounted module; their names."""
     if comp.options['mount'] != 'chassis':
@@ -264,6 +290,7 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
+        self._curves = curve_setting_inputs(self)
         self.add_output('zdd_W', shape=shape, units='m/s**2', desc='wheel travel acceleration')
         self.add_output('F_S', shape=shape, units='N', desc='spring force on the chassis, up')
         self.add_output(
@@ -275,7 +302,7 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.declare_nodewise_fd(
             {'zdd_W': 1, 'F_S': 1, 'reactions': 2 * nj},
             list(self.NODE_INPUTS),
-            settings=('k_S', 'c_S'),
+            settings=('k_S', 'c_S', *self._curves),
         )
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -289,7 +316,13 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
             c_S = np.tile(values['c_S'][cols], nn)
             kin = mod.kinematics(flat['z_W'], flat['v_W'])
             acc, force, reac = mod.dynamics(
-                kin.state, flat['z_M'], flat['v_M'], k_S, c_S, flat['F_T']
+                kin.state,
+                flat['z_M'],
+                flat['v_M'],
+                k_S,
+                c_S,
+                flat['F_T'],
+                settings=curve_settings(mod, values, self._curves, cols, nn),
             )
             zdd[:, cols] = acc.reshape(nn, len(cols))
             F_S[:, cols] = force.reshape(nn, len(cols))
@@ -333,6 +366,7 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
+        self._curves = curve_setting_inputs(self)
         self.add_output(
             'response',
             shape=(nn, nc, self._blocks, self.width),
@@ -343,7 +377,7 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.declare_nodewise_fd(
             {'response': self._blocks * self.width, 'F_S': 1},
             ['z_W', 'v_W', *pose, 'F_T'],
-            settings=('k_S', 'c_S'),
+            settings=('k_S', 'c_S', *self._curves),
         )
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -363,6 +397,7 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
                 np.tile(values['c_S'][cols], nn),
                 values['F_T'][:, cols].ravel(),
                 rotation=self.options['roll'],
+                settings=curve_settings(mod, values, self._curves, cols, nn),
             )
             resp[:, cols, :, : R.shape[2]] = R.reshape(nn, len(cols), self._blocks, -1)
             F_S[:, cols] = force.reshape(nn, len(cols))

@@ -14,7 +14,28 @@ suspension spring (the ``spring`` role):
   when the top of the wheel leans outboard (x is outboard, φ counter-clockwise in the
   x–z plane, so a positive φ tilts the top inboard);
 * track change: lateral displacement of the tyre load's marker (the contact patch),
-  positive outboard.
+  positive outboard;
+* wheel force ``dV/dw``: the vertical force at the wheel that holds the spring at travel
+  ``w``;
+* kinematic roll centre height: where the line from the contact patch ``P`` through the
+  instant centre of the wheel's body relative to the body (the frame: the chassis side)
+  meets the vehicle's centre line, above the ground (the contact patch's height at that
+  travel). The line through ``P`` and the instant centre is the normal to ``P``'s
+  velocity (``v_P = ω × (P - IC)``), so the height is ``(x_P - x_c) dx_P/dz_P`` with the
+  derivatives along the travel: it needs no instant centre at a finite distance (a
+  parallelogram's is at infinity), and it is the swing-arm construction of the roll
+  centre (Milliken & Milliken, *Race Car Vehicle Dynamics*, 1995, ch. 17). The centre line
+  ``x_c`` is the mechanism's ``[suspension] centre_line`` (default 0, the file's origin);
+  the construction assumes a symmetric vehicle moving in heave, both sides alike, so the
+  roll centre lies on the centre line. The instant centre itself (``instant_centre``, in
+  the file's frame; infinite for a translating wheel, :data:`FAR`) is
+  ``r + perp(ṙ)/φ̇`` of that body.
+
+A suspension spring with curves (:mod:`suspopt.models.curves`: a progressive spring,
+bump and rebound stops) replaces ``½ k s²`` by its elastic energy ``E(x)``, ``x = -s``
+the compression: wheel force ``-F(x) s_w`` and wheel rate ``F'(x) s_w² - F(x) s_ww``
+(``F = dE/dx``, spring and stops), so the wheel rate jumps up smoothly where a stop makes
+contact; its spring rate is then ``F'(0)``.
 """
 
 from __future__ import annotations
@@ -32,6 +53,9 @@ from suspopt.multibody.solver import PlanarMultibodySolver
 #: spring rate used when neither the caller nor the file gives one: the initial k_S of
 #: the study (SPEC §1)
 DEFAULT_SPRING_RATE = 30000.0
+#: an instant centre farther than this from the body [m] is at infinity (a translating
+#: wheel, its rotation rate zero to rounding)
+FAR = 1.0e6
 #: columns of the table: key, heading, unit scale for printing
 COLUMNS = (
     ('travel', 'wheel travel [mm]', 1e3),
@@ -40,6 +64,8 @@ COLUMNS = (
     ('wheel_rate', 'wheel rate [N/mm]', 1e-3),
     ('camber', 'camber [deg]', 1.0),
     ('track_change', 'track change [mm]', 1e3),
+    ('wheel_force', 'wheel force [N]', 1.0),
+    ('roll_centre_height', 'roll centre height [mm]', 1e3),
 )
 
 
@@ -48,12 +74,15 @@ def kinematic_curves(
     travel: tuple[float, float] | None = None,
     k: float | None = None,
     points: int = 21,
+    centre_line: float | None = None,
 ) -> dict[str, Any]:
     """The curves at ``points`` wheel travels spanning ``travel`` [m] (default: the
     mechanism's travel range), for spring rate ``k`` [N/m] (default: the spring's in the
-    file, or :data:`DEFAULT_SPRING_RATE` if that is zero). Returns plain arrays per
-    column of :data:`COLUMNS`, the independent coordinate's displacement at each travel
-    (``independent``) and the inputs (``name``, ``spring_rate``)."""
+    file, or :data:`DEFAULT_SPRING_RATE` if that is zero; for a spring with curves, ``k``
+    replaces its ``k_S``). Returns plain arrays per column of :data:`COLUMNS`, the
+    independent coordinate's displacement at each travel (``independent``), the instant
+    centre (``instant_centre``, (points, 2)), and the inputs (``name``, ``spring_rate``,
+    ``centre_line`` [m], default the mechanism's)."""
     mech = load_mechanism(mechanism, suspension=True) if isinstance(mechanism, str) else mechanism
     s = PlanarMultibodySolver(mech)
     roles = mech.roles
@@ -63,6 +92,17 @@ def kinematic_curves(
             f'travel: need min < max and at least 2 points, got [{lo}, {hi}] with {points} points'
         )
     spring = mech.force(roles['spring'])
+    unit = getattr(spring, 'curves', None)
+    params: dict[str, float] = {}
+    if unit is not None:
+        if k is not None:
+            if 'k_S' not in unit.scalar_parameters():
+                raise ConfigError(
+                    f'k: the spring {spring.name!r} of {mech.name} is a table; it has no rate '
+                    'k_S to replace'
+                )
+            params['k_S'] = float(k)
+        k = float(unit.elastic_force(0.0, params)[1])
     k = float(
         spring.stiffness
         if k is None and spring.stiffness > 0
@@ -70,9 +110,11 @@ def kinematic_curves(
         if k is None
         else k
     )
+    x_c = float(mech.centre_line if centre_line is None else centre_line)
     wheel = s.marker_names.index(roles['wheel_marker'])
     patch = s.marker_names.index(mech.force(roles['tyre_load']).marker)
     body = s.body_names.index(mech.marker(roles['wheel_marker']).body)
+    hub = s.body_names.index(mech.marker(mech.force(roles['tyre_load']).marker).body)
     ref = s.marker_reference()
     target = np.linspace(lo, hi, points)
     z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
@@ -102,16 +144,32 @@ def kinematic_curves(
     )
     s_w = sp.rate / w1
     s_ww = (sp.acceleration - s_w * w2) / w1**2
+    if unit is None:  # V = ½ k s²
+        force, rate = -k * sp.deflection, np.full(points, k)
+    else:  # V = E(x), x = -s
+        force, rate = unit.elastic_force(-sp.deflection, params)
+    P = s.marker_positions(q)[:, patch]
+    v_P = s.marker_velocities(q, qd)[:, patch] / w1[:, None]  # per unit wheel travel
+    r, v = q[:, 3 * hub : 3 * hub + 2], qd[:, 3 * hub : 3 * hub + 2]
+    omega = qd[:, 3 * hub + 2]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        ic = r + np.stack([-v[:, 1], v[:, 0]], -1) / omega[:, None]
+    # a translating wheel (to rounding): at infinity
+    ic[~(np.abs(omega) * FAR > np.hypot(v[:, 0], v[:, 1]))] = np.inf
     return {
         'name': mech.name,
         'spring_rate': k,
+        'centre_line': x_c,
         'travel': w,
         'independent': z - s.q0[s.ind[0]],
         'spring_deflection': sp.deflection,
         'motion_ratio': -s_w,
-        'wheel_rate': k * (s_w**2 + sp.deflection * s_ww),
+        'wheel_rate': rate * s_w**2 - force * s_ww,
         'camber': -np.degrees(q[:, 3 * body + 2] - s.q0[3 * body + 2]),
-        'track_change': s.marker_positions(q)[:, patch, 0] - ref[patch, 0],
+        'track_change': P[:, 0] - ref[patch, 0],
+        'wheel_force': -force * s_w,
+        'roll_centre_height': (P[:, 0] - x_c) * v_P[:, 0] / v_P[:, 1],
+        'instant_centre': ic,
     }
 
 
@@ -135,18 +193,29 @@ def _fmt(x: float) -> str:
     return '0.0000' if text == '-0.0000' else text
 
 
+#: the panels of :func:`plot_curves`
+PLOTTED = (
+    'motion_ratio',
+    'wheel_rate',
+    'wheel_force',
+    'camber',
+    'track_change',
+    'roll_centre_height',
+)
+
+
 def plot_curves(curves: dict[str, Any], path: str | Path) -> Path:
-    """Motion ratio, wheel rate, camber and track change against wheel travel (PNG)."""
+    """Motion ratio, wheel rate, wheel force, camber, track change and roll centre height
+    against wheel travel (PNG)."""
     import matplotlib
 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 2, figsize=(9, 6.5), sharex=True)
+    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5), sharex=True)
     w = curves['travel'] * 1e3
     for ax, (key, head, scale) in zip(
-        axes.ravel(),
-        [c for c in COLUMNS if c[0] in ('motion_ratio', 'wheel_rate', 'camber', 'track_change')],
+        axes.ravel(), [c for key in PLOTTED for c in COLUMNS if c[0] == key]
     ):
         ax.plot(w, curves[key] * scale, 'o-', ms=3)
         ax.set_ylabel(head)
@@ -189,6 +258,9 @@ def reference_wheel_rate(
             dfl = sp.deflection[0]
             if spec.name == roles['spring']:
                 a, mr = s_w**2 + dfl * s_ww, -s_w
+            elif getattr(spec, 'curves', None) is not None:  # E(x), x = -s
+                F, dF = spec.curves.elastic_force(-dfl)
+                b = b + float(dF) * s_w**2 - float(F) * s_ww + spec.preload * s_ww
             else:
                 b = b + spec.stiffness * (s_w**2 + dfl * s_ww) + spec.preload * s_ww
     if not (abs(w1) > 1e-9 and np.isfinite(a) and np.isfinite(b) and np.isfinite(mr)):

@@ -85,6 +85,10 @@ class Mechanism:
     forces: tuple[ForceSpec, ...] = ()
     roles: dict[str, str] = field(default_factory=dict, compare=False, hash=False)
     travel: tuple[float, float] | None = field(default=None, compare=False, hash=False)
+    #: lateral position x of the vehicle's centre line in the front view [m] (the
+    #: ``[suspension]`` key ``centre_line``, default 0: the file's origin), where the
+    #: kinematic roll centre lies (:mod:`suspopt.multibody.kinematics`)
+    centre_line: float = field(default=0.0, compare=False, hash=False)
 
     def body_index(self, name: str) -> int:
         return [b.name for b in self.bodies].index(name)
@@ -121,6 +125,9 @@ SUSPENSION_ROLES = {
 #: optional ``[suspension]`` key: the wheel travel range [m] the linkage must pass
 #: without locking, ``[min, max]`` (default :data:`DEFAULT_TRAVEL`)
 TRAVEL_KEY = 'travel'
+#: optional ``[suspension]`` key: the vehicle centre line's lateral coordinate x [m] in the
+#: file's front view (default 0); it must be inboard of the contact patch
+CENTRE_LINE_KEY = 'centre_line'
 
 
 def builtin_mechanisms() -> list[str]:
@@ -248,6 +255,7 @@ def mechanism_from_dict(
 
     roles: dict[str, str] = {}
     travel = None
+    centre_line = 0.0
     if suspension:
         fixed = (
             {b.name for b in bodies if b.fixed}
@@ -260,6 +268,7 @@ def mechanism_from_dict(
             }
         )
         roles, travel = _suspension_roles(rd, data, loads + forces, independent, fixed)
+        centre_line = _centre_line(rd, data, loads + forces)
 
     mech = Mechanism(
         name=str(data.get('name', Path(source).stem)),
@@ -274,6 +283,7 @@ def mechanism_from_dict(
         forces=tuple(forces),
         roles=roles,
         travel=travel,
+        centre_line=centre_line,
     )
     if rd.errors:
         raise ConfigError(rd.errors)
@@ -324,7 +334,11 @@ def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list, f
     if not isinstance(sus, dict):
         rd.err('suspension', 'must be a table')
         sus = {}
-    rd.table(sus, 'suspension', {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False})
+    rd.table(
+        sus,
+        'suspension',
+        {**{k: k != 'spring' for k in SUSPENSION_ROLES}, TRAVEL_KEY: False, CENTRE_LINE_KEY: False},
+    )
     if 'wheel_marker' in sus:
         rd.marker(sus['wheel_marker'], 'suspension.wheel_marker')
     by_name = {f.name: f for f in forces}
@@ -394,6 +408,24 @@ def _suspension_roles(rd: Reader, data: dict, forces: list, independent: list, f
         )
     roles = {k: str(v) for k, v in sus.items() if k in SUSPENSION_ROLES}
     return roles, travel
+
+
+def _centre_line(rd: Reader, data: dict, forces: list) -> float:
+    """The ``[suspension]`` key ``centre_line``: a number inboard of the contact patch."""
+    sus = data.get('suspension', {})
+    if not isinstance(sus, dict) or CENTRE_LINE_KEY not in sus:
+        return 0.0
+    x_c = rd.number(sus, CENTRE_LINE_KEY, 'suspension')
+    tyre = next((f for f in forces if f.name == sus.get('tyre_load')), None)
+    if tyre is not None and tyre.marker in rd.markers and math.isfinite(x_c):
+        x_p = rd.markers[tyre.marker][1][0]
+        if not x_c < x_p:
+            rd.err(
+                f'suspension.{CENTRE_LINE_KEY}',
+                f'the centre line must be inboard of the contact patch (x < {x_p:g} m, x '
+                f'outboard), got {x_c:g}',
+            )
+    return x_c
 
 
 def _check_tyre_direction(rd: Reader, load: PointLoad, data: dict) -> None:

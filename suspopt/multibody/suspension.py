@@ -155,6 +155,19 @@ class SuspensionModule:
             )
         self.chassis_end = chassis[0]
         self._spring_group = s._force_group[self.spring_name]
+        #: the spring's curves (a SpringDamperUnit), None for the linear spring-damper
+        self.unit = getattr(mechanism.force(self.spring_name), 'curves', None)
+        #: the spring's run-time settings, per corner: ``k_S``, ``c_S`` (linear), or the
+        #: scalar parameters of its curves (``k_S``, ``k_S3``, ``c_bump_low``, ...)
+        self.settings: tuple[str, ...] = (
+            ('k_S', 'c_S') if self.unit is None else tuple(self.unit.scalar_parameters())
+        )
+        #: their units (OpenMDAO)
+        self.setting_units: dict[str, str] = {'k_S': 'N/m', 'c_S': 'N*s/m'}
+        if self.unit is not None:
+            self.setting_units = {
+                n: p.units for p in self.unit.parameters() for n in p.scalar_names()
+            }
         self.marker_ref = s.marker_reference()
         # the wheel marker: its body's coordinates in q, its point in body axes (u, perp(u))
         b = int(s.mk_body[self.wheel])
@@ -306,17 +319,50 @@ class SuspensionModule:
         out[2, :, 0], out[2, :, 1], out[2, :, 2] = -Ar[:, 1], Ar[:, 0], 1.0
         return out
 
-    def spring_params(self, state: MultibodyState, z_M, v_M, k_S, c_S) -> dict:
+    def spring_params(self, state: MultibodyState, z_M, v_M, k_S, c_S, settings=None) -> dict:
         """The spring's run-time values: rate, damping, and the preload
-        ``e_z (k_S z_M + c_S v_M)`` of the chassis mount's motion along its axis."""
-        e_z = self.axis_vertical(state)
+        ``e_z (k_S z_M + c_S v_M)`` of the chassis mount's motion along its axis; for a
+        spring with curves, its curve parameters (:meth:`curve_values`) and the length
+        offsets ``e_z z_M``, ``e_z v_M``."""
         return {
-            self.spring_name: {
-                'stiffness': k_S,
-                'damping': c_S,
-                'preload': e_z * (k_S * z_M + c_S * v_M),
-            }
+            self.spring_name: self._spring_values(
+                self.axis_vertical(state), z_M, v_M, k_S, c_S, settings
+            )
         }
+
+    def _spring_values(self, e_z, z_M, v_M, k_S, c_S, settings) -> dict:
+        """The spring's run-time values (see :meth:`spring_params`); ``e_z`` None: a
+        chassis-mounted module (no mount motion along the spring)."""
+        if self.unit is None:
+            if settings:
+                raise ValueError(
+                    f'{self.mechanism.name}: the spring {self.spring_name!r} has no curves; '
+                    f'settings {sorted(settings)} given'
+                )
+            if e_z is None:
+                return {'stiffness': k_S, 'damping': c_S}
+            return {'stiffness': k_S, 'damping': c_S, 'preload': e_z * (k_S * z_M + c_S * v_M)}
+        values = self.curve_values(k_S, c_S, settings)
+        if e_z is not None:
+            values['offset'], values['offset_rate'] = e_z * z_M, e_z * v_M
+        return values
+
+    def curve_values(self, k_S=None, c_S=None, settings=None) -> dict:
+        """The curve parameters given at run time: ``settings`` by scalar name
+        (:attr:`settings`), and ``k_S``, ``c_S`` for the curves' parameters of those names
+        (a polynomial spring's rate, a linear damper), unless ``settings`` has them; the
+        others keep the file's values."""
+        settings = dict(settings or {})
+        unknown = sorted(set(settings) - set(self.settings))
+        if unknown:
+            raise ValueError(
+                f'{self.mechanism.name}: the spring {self.spring_name!r} has no settings '
+                f'{unknown} (settings: {", ".join(self.settings)})'
+            )
+        for name, val in (('k_S', k_S), ('c_S', c_S)):
+            if val is not None and name in self.settings:
+                settings.setdefault(name, val)
+        return settings
 
     def axis_vertical(self, state: MultibodyState) -> np.ndarray:
         """``e_z``: vertical component of the unit vector from the spring's linkage end to
@@ -343,14 +389,17 @@ class SuspensionModule:
         state: MultibodyState,
         z_M: np.ndarray,
         v_M: np.ndarray,
-        k_S: np.ndarray,
-        c_S: np.ndarray,
+        k_S: np.ndarray | None,
+        c_S: np.ndarray | None,
         F_T: np.ndarray,
+        settings: dict[str, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Augmented-form dynamics (eq. 11) under the suspension spring (rate ``k_S``,
         damping ``c_S``, chassis mount at ``z_M``, ``v_M``) and ``+F_T`` on the contact
         patch: wheel-travel acceleration (N,), the spring's vertical force on the chassis
-        ``F_S`` (N,) and the joint reactions (N, nj, 2)."""
+        ``F_S`` (N,) and the joint reactions (N, nj, 2). A spring with curves takes its
+        parameters from ``settings`` (and ``k_S``, ``c_S``: :meth:`curve_values`), the
+        mount's motion as the length offsets ``e_z z_M``, ``e_z v_M``."""
         if self.mount != 'ground':
             raise ValueError(
                 f"{self.mechanism.name}: dynamics() is the ground mount's "
@@ -367,13 +416,16 @@ class SuspensionModule:
             gi = self._spring_group[0]
             geo = {gi: s.force_groups[gi].geometry(qe)}  # the spring's, once
             e_z = self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1]
-            params = {
-                self.spring_name: {
-                    'stiffness': k_S,
-                    'damping': c_S,  # spring_params
-                    'preload': e_z * (k_S * z_M + c_S * v_M),
+            if self.unit is None and not settings:
+                params = {
+                    self.spring_name: {
+                        'stiffness': k_S,
+                        'damping': c_S,  # spring_params
+                        'preload': e_z * (k_S * z_M + c_S * v_M),
+                    }
                 }
-            }
+            else:
+                params = {self.spring_name: self._spring_values(e_z, z_M, v_M, k_S, c_S, settings)}
             values = s._force_values(N, loads, params)
             Q, parts = s._forces(q, qe, qde, values, geo)
             # solve_augmented(q, qd, Q, Cq=state.Cq)
@@ -404,11 +456,12 @@ class SuspensionModule:
     def mount_response(
         self,
         kin: ModuleKinematics,
-        k_S: np.ndarray,
-        c_S: np.ndarray,
+        k_S: np.ndarray | None,
+        c_S: np.ndarray | None,
         F_T: np.ndarray,
         rotation: bool = False,
         acceleration: np.ndarray | None = None,
+        settings: dict[str, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Chassis mount: what the linkage applies on the chassis at N states analysed by
         :meth:`kinematics`, under the spring (``k_S``, ``c_S``) and ``+F_T`` on the contact
@@ -423,14 +476,15 @@ class SuspensionModule:
         then the response per unit vertical acceleration of P (and, with ``rotation``, per
         unit ψ̈): the response at mount accelerations ``a`` is ``R_0 + Σ_u a_u R_u``
         exactly. With ``acceleration`` (N, 2) = (vertical, angular) of the mount, B = 1:
-        the response at that acceleration itself."""
+        the response at that acceleration itself. A spring with curves takes its
+        parameters from ``settings`` (and ``k_S``, ``c_S``, see :meth:`dynamics`)."""
         t0 = time.perf_counter()
         s, state, pose = self.solver, kin.state, kin.pose
         try:
             N = state.q.shape[0]
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
-            params = {self.spring_name: {'stiffness': k_S, 'damping': c_S}}
+            params = {self.spring_name: self._spring_values(None, None, None, k_S, c_S, settings)}
             qe, qde = s._ext(state.q), s._ext(state.qd)
             gi = self._spring_group[0]
             geo = {gi: s.force_groups[gi].geometry(qe)}

@@ -24,6 +24,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from suspopt.errors import ConfigError
+from suspopt.models.curves import SLOTS, SpringDamperUnit
 from suspopt.multibody.reading import GROUND
 
 COORDINATES = ('x', 'z', 'phi')
@@ -429,15 +431,19 @@ class ForceGroup:
     """All force elements of one type in a mechanism (subclasses: one per force type)."""
 
     #: names of the run-time parameters (each (N, ne); defaults from the file)
-    parameters: ClassVar[tuple[str, ...]] = ()
+    parameters: tuple[str, ...] = ()
     n_bodies: ClassVar[int] = 2
 
     def __init__(self, specs: list[Any], layout: Layout):
         self.specs = specs
         self.names = [s.name for s in specs]
         self.defaults = {
-            p: np.array([getattr(s, p) for s in specs], dtype=float) for p in self.parameters
+            p: np.array([self.default(s, p) for s in specs], dtype=float) for p in self.parameters
         }
+
+    def default(self, spec: Any, parameter: str) -> float:
+        """The file's value of a run-time parameter of element ``spec``."""
+        return getattr(spec, parameter)
 
     def generalized_force(
         self, qe: np.ndarray, qde: np.ndarray | None, values: dict[str, np.ndarray]
@@ -467,11 +473,44 @@ class ScalarSpringGroup(ForceGroup):
     tension ``f = k (ℓ - ℓ0) + c ℓ̇ + f_p`` (``f_p``: a preload, 0 unless given) and
     generalized force ``Q = -f (∂ℓ/∂q)ᵀ``, which is ``-∂V/∂q`` of
     ``V = ½ k (ℓ - ℓ0)² + f_p (ℓ - ℓ0)`` plus the damper. Subclasses define ``ℓ``, its
-    gradient, ``(ℓ_q q̇)_q q̇`` (so that ``ℓ̈ = ℓ_q q̈ + that``) and the line of action."""
+    gradient, ``(ℓ_q q̇)_q q̇`` (so that ``ℓ̈ = ℓ_q q̈ + that``) and the line of action.
 
-    parameters = ('stiffness', 'damping', 'preload')
+    An element with curves (``spec.curves``, a
+    :class:`~suspopt.models.curves.SpringDamperUnit`: spring, damper, bump and rebound
+    stops) has instead the tension
+
+        f = f_p - F(x, v),   x = -(ℓ - ℓ0 + δ),   v = -(ℓ̇ + δ̇)
+
+    ``F`` the unit's force with compression ``x`` and compression rate ``v`` positive
+    (bump, the curves' convention), ``V = E(x) + f_p (ℓ - ℓ0)``, ``E = ∫_0^x (S + B + R)``.
+    ``δ``, ``δ̇`` (run-time parameters ``offset``, ``offset_rate``, default 0) lengthen the
+    element, e.g. by a chassis mount's motion along it. Every curve parameter is a
+    run-time parameter of its scalar name
+    (:meth:`~suspopt.models.curves.SpringDamperUnit.scalar_parameters`: ``k_S``,
+    ``c_bump_low``, ``damper_forces_3`` ...). The elements of a group evaluate their
+    curves in one call per distinct curve structure."""
+
+    parameters: tuple[str, ...] = ('stiffness', 'damping', 'preload')
 
     def __init__(self, specs: list[Any], layout: Layout):
+        units = [getattr(s, 'curves', None) for s in specs]
+        #: (unit, element indices, its scalar parameter names) per distinct curve structure
+        self.curve_batches: list[tuple[Any, np.ndarray, list[str]]] = []
+        if any(u is not None for u in units):
+            by: dict[tuple, list[int]] = {}
+            for i, u in enumerate(units):
+                if u is not None:
+                    by.setdefault(u.structure(), []).append(i)
+            for idx in by.values():
+                unit = units[idx[0]]
+                assert unit is not None
+                self.curve_batches.append((unit, np.array(idx), list(unit.scalar_parameters())))
+            curve_names = [n for _, _, names in self.curve_batches for n in names]
+            self.parameters = (
+                ScalarSpringGroup.parameters
+                + ('offset', 'offset_rate')
+                + tuple(dict.fromkeys(curve_names))
+            )
         super().__init__(specs, layout)
         ends = [[layout.markers[m] for m in s.markers] for s in specs]
         self.bodies = np.array([[e[0] for e in pair] for pair in ends], dtype=int).reshape(-1, 2)
@@ -483,6 +522,14 @@ class ScalarSpringGroup(ForceGroup):
             [ref[i] if s.free_length is None else s.free_length for i, s in enumerate(specs)],
             dtype=float,
         )
+
+    def default(self, spec: Any, parameter: str) -> float:
+        if parameter in ScalarSpringGroup.parameters:
+            return getattr(spec, parameter)
+        unit = getattr(spec, 'curves', None)
+        if unit is None:
+            return 0.0  # offsets, and curve parameters of an element without curves
+        return unit.scalar_parameters().get(parameter, 0.0)
 
     def setup(self, specs: list[Any], layout: Layout) -> None:
         """Type-specific constant data (called before the reference length is taken)."""
@@ -526,6 +573,8 @@ class ScalarSpringGroup(ForceGroup):
     ) -> tuple[np.ndarray, ...]:
         """``ℓ``, ``ℓ̇``, ``f`` (N, ne each) and the gradient (N, ne, 2, 3)."""
         ell, grad = self.measure(qe, geometry)
+        if self.curve_batches:
+            return self._curve_tension(ell, grad, qde, values)
         f = values['stiffness'] * (ell - self.free_length) + values['preload']
         if qde is None:
             if np.any(values['damping'] != 0.0):
@@ -538,11 +587,51 @@ class ScalarSpringGroup(ForceGroup):
             f = f + values['damping'] * ell_d
         return ell, ell_d, f, grad
 
+    def _curve_tension(self, ell, grad, qde, values):
+        """:meth:`tension` of a group with curve elements (see the class docstring);
+        without velocities the tension of a damped element is NaN (the spring queries of
+        a pose; the generalized forces refuse it, :meth:`forces`)."""
+        e = ell - self.free_length + values['offset']
+        f = values['stiffness'] * e + values['preload']
+        if qde is None:
+            ell_d = np.full_like(ell, np.nan)
+            f = np.where(values['damping'] != 0.0, np.nan, f)
+        else:
+            ell_d = self.rate(grad, qde)
+            f = f + values['damping'] * (ell_d + values['offset_rate'])
+        for unit, idx, names in self.curve_batches:
+            params = unit.gather({n: values[n][:, idx] for n in names})
+            x = -e[:, idx]
+            if qde is None:
+                F = unit.elastic_force(x, params)[0]
+                if not _no_damper(unit, values, idx):
+                    F = F + np.nan
+            else:
+                v = -(ell_d[:, idx] + values['offset_rate'][:, idx])
+                F = unit.force(x, v, params, partials=False).value
+            f[:, idx] -= F
+        return ell, ell_d, f, grad
+
+    def _check_velocities(self, qde, values) -> None:
+        if (
+            qde is None
+            and self.curve_batches
+            and (
+                np.any(values['damping'] != 0.0)
+                or any(not _no_damper(u, values, idx) for u, idx, _ in self.curve_batches)
+            )
+        ):
+            raise ValueError(
+                f'force elements {self.names} have damping: the velocities qd are needed'
+            )
+
     def generalized_force(self, qe, qde, values):
+        self._check_velocities(qde, values)
         _, _, f, grad = self.tension(qe, qde, values)
         return -f[..., None, None] * grad
 
     def forces(self, qe, qde, values, geometry=None):
+        self._check_velocities(qde, values)
         if type(self).generalized_force is not ScalarSpringGroup.generalized_force:
             return self.generalized_force(qe, qde, values), None
         t = self.tension(qe, qde, values, geometry)
@@ -550,11 +639,31 @@ class ScalarSpringGroup(ForceGroup):
 
     def potential(self, qe, values):
         s = self.length(qe) - self.free_length
-        return 0.5 * values['stiffness'] * s**2 + values['preload'] * s
+        if not self.curve_batches:
+            return 0.5 * values['stiffness'] * s**2 + values['preload'] * s
+        e = s + values['offset']
+        V = 0.5 * values['stiffness'] * e**2 + values['preload'] * s
+        for unit, idx, names in self.curve_batches:
+            params = unit.gather({n: values[n][:, idx] for n in names})
+            V[:, idx] += unit.elastic_energy(-e[:, idx], params)
+        return V
+
+
+def _no_damper(unit: Any, values: dict[str, np.ndarray], idx: np.ndarray) -> bool:
+    """The unit's damper gives no force at these values (its slopes and table forces are
+    all zero), so the velocities are not needed."""
+    names = [
+        n
+        for p in unit.damper.parameters()
+        if not p.name.startswith('v_')  # knee velocities
+        for n in p.scalar_names()
+    ]
+    return all(np.all(values[n][:, idx] == 0.0) for n in names)
 
 
 def spring_spec_keys() -> dict[str, bool]:
-    """TOML keys shared by the spring-damper types (True: required)."""
+    """TOML keys shared by the spring-damper types (True: required); the curve subtables
+    (:data:`~suspopt.models.curves.SLOTS`) are optional."""
     return {
         'name': True,
         'type': True,
@@ -563,6 +672,7 @@ def spring_spec_keys() -> dict[str, bool]:
         'damping': False,
         'preload': False,
         'free_length': False,
+        **dict.fromkeys(SLOTS, False),
     }
 
 
@@ -582,7 +692,7 @@ def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
                 'needs its ends on two different bodies',
             )
     free = data.get('free_length')
-    return {
+    common = {
         'markers': (pair[0], pair[1]),
         'stiffness': rd.number(data, 'stiffness', where, nonnegative=True, default=0.0),
         'damping': rd.number(data, 'damping', where, nonnegative=True, default=0.0),
@@ -591,6 +701,32 @@ def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
         if free is None
         else rd.number(data, 'free_length', where, positive=True),
     }
+    common['curves'] = read_curves(rd, data, where, common)
+    return common
+
+
+def read_curves(rd, data: dict, where: str, common: dict[str, Any]) -> SpringDamperUnit | None:
+    """The element's curve subtables as a :class:`~suspopt.models.curves.SpringDamperUnit`
+    (None without any): a spring curve replaces ``stiffness``, a damper curve ``damping``
+    (each pair is exclusive); without them the unit's spring and damper are the linear
+    ones of ``stiffness`` and ``damping``. The file gives no travel, so a polynomial spring
+    must have a non-negative rate at every deflection (odd powers, say)."""
+    if not any(slot in data for slot in SLOTS):
+        return None
+    for key, slot in (('stiffness', 'spring_curve'), ('damping', 'damper_curve')):
+        if key in data and slot in data:
+            rd.err(f'{where}.{key}', f'give {key} or {slot}, not both')
+    try:
+        unit = SpringDamperUnit.from_dict(
+            data, where, stiffness=common['stiffness'], damping=common['damping']
+        )
+    except ConfigError as err:
+        for line in err.problems:
+            key, _, msg = line.partition(': ')
+            rd.err(key, msg)
+        return None
+    common['stiffness'] = common['damping'] = 0.0  # in the unit
+    return unit
 
 
 __all__ = [

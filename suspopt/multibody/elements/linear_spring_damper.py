@@ -21,6 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from suspopt.models.curves import SpringDamperUnit
 from suspopt.multibody.elements.base import (
     AxisProjection,
     ScalarSpringGroup,
@@ -42,6 +43,9 @@ class LinearSpringDamper:
     damping: float = 0.0
     preload: float = 0.0
     free_length: float | None = None
+    #: spring, damper and stop curves (the TOML subtables spring_curve, damper_curve,
+    #: bump_stop, rebound_stop); None: the linear stiffness and damping
+    curves: SpringDamperUnit | None = None
     type: ClassVar[str] = 'linear_spring_damper'
     keys: ClassVar[dict[str, bool]] = {**spring_spec_keys(), 'axis': True}
 

@@ -16,6 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from suspopt.models.curves import SpringDamperUnit
 from suspopt.multibody.elements.base import (
     ScalarSpringGroup,
     cross,
@@ -37,6 +38,9 @@ class SpringDamper:
     damping: float = 0.0
     preload: float = 0.0
     free_length: float | None = None
+    #: spring, damper and stop curves (the TOML subtables spring_curve, damper_curve,
+    #: bump_stop, rebound_stop); None: the linear stiffness and damping
+    curves: SpringDamperUnit | None = None
     type: ClassVar[str] = 'spring_damper'
     keys: ClassVar[dict[str, bool]] = spring_spec_keys()
 
