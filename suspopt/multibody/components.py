@@ -91,6 +91,11 @@ class NodewiseBlackBox(om.ExplicitComponent):
                     of, wrt, rows=rows, cols=np.repeat(np.tile(np.arange(nc), nn), width)
                 )
 
+    @property
+    def _curves(self) -> tuple[str, ...]:
+        """The names of the springs' curve parameters (inputs beside ``k_S``, ``c_S``)."""
+        return tuple(curve_setting_names(self.options['modules']))
+
     def groups(self) -> list[tuple[SuspensionModule, list[int]]]:
         """The corners of each distinct module (analysed in one batch)."""
         out: list[tuple[SuspensionModule, list[int]]] = []
@@ -207,20 +212,26 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
         return worst
 
 
-def curve_setting_inputs(comp: NodewiseBlackBox) -> tuple[str, ...]:
-    """Add the per-corner inputs of the springs' curve parameters (every module's
+def curve_setting_names(modules: tuple) -> dict[str, tuple[str, float]]:
+    """The springs' curve parameters of ``modules`` (every module's
     :attr:`~suspopt.multibody.suspension.SuspensionModule.settings` besides ``k_S``,
-    ``c_S``, default: the first file's value); their names (none for linear springs)."""
-    nc = comp.options['corners']
-    names: dict[str, str] = {}
-    defaults: dict[str, float] = {}
-    for mod in comp.options['modules']:
+    ``c_S``), each with its units and default (the first file's value); none for linear
+    springs."""
+    out: dict[str, tuple[str, float]] = {}
+    for mod in modules:
         for n in mod.settings:
-            if n not in ('k_S', 'c_S') and n not in names:
-                names[n] = mod.setting_units[n]
-                defaults[n] = mod.unit.scalar_parameters()[n]
-    for n, units in names.items():
-        comp.add_input(n, val=defaults[n], shape=(nc,), units=units, desc='spring curve parameter')
+            if n not in ('k_S', 'c_S') and n not in out:
+                out[n] = (mod.setting_units[n], mod.unit.scalar_parameters()[n])
+    return out
+
+
+def curve_setting_inputs(comp: NodewiseBlackBox) -> tuple[str, ...]:
+    """Add the per-corner inputs of the springs' curve parameters
+    (:func:`curve_setting_names`); their names."""
+    nc = comp.options['corners']
+    names = curve_setting_names(comp.options['modules'])
+    for n, (units, default) in names.items():
+        comp.add_input(n, val=default, shape=(nc,), units=units, desc='spring curve parameter')
     return tuple(names)
 
 
@@ -290,7 +301,7 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
-        self._curves = curve_setting_inputs(self)
+        curve_setting_inputs(self)
         self.add_output('zdd_W', shape=shape, units='m/s**2', desc='wheel travel acceleration')
         self.add_output('F_S', shape=shape, units='N', desc='spring force on the chassis, up')
         self.add_output(
@@ -366,7 +377,7 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
-        self._curves = curve_setting_inputs(self)
+        curve_setting_inputs(self)
         self.add_output(
             'response',
             shape=(nn, nc, self._blocks, self.width),
