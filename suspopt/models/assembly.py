@@ -20,6 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
+from suspopt.models.comfort import SeatAccelerationComp, WeightingFilterComp
 from suspopt.models.forces import (
     AntiRollBarComp,
     MountMotionComp,
@@ -27,9 +28,14 @@ from suspopt.models.forces import (
     TyreForceComp,
     WheelLoadComp,
 )
+from suspopt.models.iso2631 import WK_RIDE, filter_bank
 from suspopt.models.layout import VehicleLayout
+from suspopt.models.metric_components import (
+    SquaredSignalsComp,
+    SuspensionTravelComp,
+    TyreLoadRatioComp,
+)
 from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
-from suspopt.models.objective import ObjectiveIntegrandComp
 from suspopt.models.road_input import RoadInputComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
@@ -62,11 +68,19 @@ class VehicleSpec:
     fd_form: str = 'forward'
     fd_step: float = 1e-6
     mount: str = 'ground'
+    #: the static tyre load per corner [N] (the tyre-contact metric)
+    static_load: np.ndarray | None = None
+    #: the seats where comfort is measured: (name, x ahead of, y left of the CG [m])
+    seats: tuple[tuple[str, float, float], ...] = ()
 
     @property
     def chassis_states(self) -> tuple[str, ...]:
-        out = ('z_C', 'v_C', 'theta_C', 'omega_C')
-        return out + (('phi_C', 'p_C') if self.layout.has_roll else ())
+        lay = self.layout
+        return (
+            ('z_C', 'v_C')
+            + (('theta_C', 'omega_C') if lay.has_pitch else ())
+            + (('phi_C', 'p_C') if lay.has_roll else ())
+        )
 
     @property
     def side(self) -> np.ndarray:
@@ -125,18 +139,21 @@ def states(spec: VehicleSpec) -> tuple[State, ...]:
     travel, each with its rate; ``ref`` is a typical magnitude over a road feature of a
     few centimetres."""
     nc = (spec.layout.n,)
-    out = [
-        State('z_C', 'v_C', 'm', 0.02, (1,)),
-        State('v_C', 'zdd_C', 'm/s', 0.2, (1,)),
-        State('theta_C', 'omega_C', 'rad', 0.01, (1,)),
-        State('omega_C', 'thdd_C', 'rad/s', 0.2, (1,)),
-    ]
+    out = [State('z_C', 'v_C', 'm', 0.02, (1,)), State('v_C', 'zdd_C', 'm/s', 0.2, (1,))]
+    if spec.layout.has_pitch:
+        out += [
+            State('theta_C', 'omega_C', 'rad', 0.01, (1,)),
+            State('omega_C', 'thdd_C', 'rad/s', 0.2, (1,)),
+        ]
     if spec.layout.has_roll:
         out += [
             State('phi_C', 'p_C', 'rad', 0.01, (1,)),
             State('p_C', 'phidd_C', 'rad/s', 0.2, (1,)),
         ]
     out += [State('z_W', 'v_W', 'm', 0.05, nc), State('v_W', 'zdd_W', 'm/s', 1.0, nc)]
+    if spec.seats:  # the seats' ISO 2631-1 filters, states of the size of the acceleration
+        n = filter_bank([WK_RIDE] * len(spec.seats)).n_states
+        out.append(State('x_w', 'x_w_dot', 'm/s**2', 1.0, (n,)))
     return tuple(out)
 
 
@@ -154,15 +171,7 @@ def assemble(spec: VehicleSpec, fidelity: str) -> VehicleAssembly:
         blocks += _chassis_mounted(spec)
     else:
         blocks += _ground_mounted(spec)
-    wheel = 'q_W' if fidelity == 'mixed' else 'z_W'
-    roll = spec.layout.has_roll
-    blocks.append(
-        Block(
-            'objective_integrand',
-            lambda nn: ObjectiveIntegrandComp(num_nodes=nn, corners=spec.layout.n, roll=roll),
-            inputs=(('wheel_z', wheel),),
-        )
-    )
+    blocks += _metrics(spec, 'q_W' if fidelity == 'mixed' else 'z_W')
     return VehicleAssembly(
         spec=spec,
         fidelity=fidelity,
@@ -174,16 +183,82 @@ def assemble(spec: VehicleSpec, fidelity: str) -> VehicleAssembly:
 
 def _timeseries(spec: VehicleSpec, fidelity: str) -> tuple[str, ...]:
     """Signals recorded along the trajectory (beyond the states)."""
-    chassis = ('zdd_C', 'thdd_C') + (('phidd_C',) if spec.layout.has_roll else ())
+    chassis = _accelerations(spec)
     forces = ('zdd_W', 'F_S', 'F_T', 'delta', 'z_M') + (('F_R',) if spec.bars[0] else ())
     mixed: tuple[str, ...] = ('q_W', 'reactions') if fidelity == 'mixed' else ()
     if fidelity == 'mixed' and spec.mount == 'chassis':
         mixed += ('F_M',)
-    return chassis + forces + mixed
+    metrics = ('travel',) + (('tyre_load_ratio',) if spec.static_load is not None else ())
+    return chassis + forces + mixed + metrics + (('a_w',) if spec.seats else ())
 
 
 def _kw(spec: VehicleSpec, nn: int) -> dict[str, int]:
     return {'num_nodes': nn, 'corners': spec.layout.n}
+
+
+def _dofs(spec: VehicleSpec) -> dict[str, bool]:
+    """The chassis' rotations, as the components' options."""
+    return {'pitch': spec.layout.has_pitch, 'roll': spec.layout.has_roll}
+
+
+def _accelerations(spec: VehicleSpec) -> tuple[str, ...]:
+    """The chassis' accelerations: heave[, pitch][, roll]."""
+    names = {'heave': 'zdd_C', 'pitch': 'thdd_C', 'roll': 'phidd_C'}
+    return tuple(names[d] for d in spec.layout.dofs)
+
+
+def integrand_signals(spec: VehicleSpec, wheel: str) -> tuple[tuple[str, str, int], ...]:
+    """The metric signals whose squares are the objective's integrands, in the order of
+    :func:`suspopt.models.metrics.objective_terms`: (vehicle signal, units, columns; 0 for
+    one value per node)."""
+    nc = spec.layout.n
+    units = {'zdd_C': 'm/s**2', 'thdd_C': 'rad/s**2', 'phidd_C': 'rad/s**2'}
+    out = [(a, units[a], 0) for a in _accelerations(spec)]
+    out += [(wheel, 'm', nc), ('F_T', 'N', nc), ('travel', 'm', nc)]
+    if spec.seats:
+        out.append(('a_w', 'm/s**2', len(spec.seats)))
+    return tuple(out)
+
+
+def _metrics(spec: VehicleSpec, wheel: str) -> list[Block]:
+    """The ride metrics (:mod:`suspopt.models.metrics`) and the objective's integrands."""
+    blocks = [
+        Block(
+            'travel',
+            lambda nn: SuspensionTravelComp(**_kw(spec, nn)),
+            inputs=(('wheel_z', wheel),),
+        )
+    ]
+    static = spec.static_load
+    if static is not None:
+        blocks.append(
+            Block('tyre_load_ratio', lambda nn: TyreLoadRatioComp(static=static, **_kw(spec, nn)))
+        )
+    if spec.seats:
+        x = np.array([s[1] for s in spec.seats])
+        y = np.array([s[2] for s in spec.seats])
+        weightings = (WK_RIDE,) * len(spec.seats)
+        blocks += [
+            Block(
+                'seats',
+                lambda nn: SeatAccelerationComp(num_nodes=nn, x=x, y=y, **_dofs(spec)),
+            ),
+            Block(
+                'comfort_filter',
+                lambda nn: WeightingFilterComp(num_nodes=nn, weightings=weightings),
+                inputs=(('signal', 'a_seat'), ('filter_x', 'x_w')),
+                outputs=(('filter_x_dot', 'x_w_dot'), ('weighted', 'a_w')),
+            ),
+        ]
+    signals = integrand_signals(spec, wheel)
+    blocks.append(
+        Block(
+            'objective_integrand',
+            lambda nn: SquaredSignalsComp(signals=signals, **_kw(spec, nn)),
+            inputs=((wheel, wheel),),
+        )
+    )
+    return blocks
 
 
 def _common(spec: VehicleSpec) -> Iterator[Block]:
@@ -203,7 +278,7 @@ def _common(spec: VehicleSpec) -> Iterator[Block]:
     )
     yield Block(
         'mount',
-        lambda nn: MountMotionComp(a=lay.a, y=lay.y, roll=lay.has_roll, **_kw(spec, nn)),
+        lambda nn: MountMotionComp(a=lay.a, y=lay.y, **_dofs(spec), **_kw(spec, nn)),
     )
 
 
@@ -227,10 +302,11 @@ def _chassis(spec: VehicleSpec, forces: tuple[str, ...]) -> Iterator[Block]:
     yield Block(
         'chassis_heave', lambda nn: ChassisHeaveComp(M=spec.M, forces=forces, **_kw(spec, nn))
     )
-    yield Block(
-        'chassis_pitch',
-        lambda nn: ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **_kw(spec, nn)),
-    )
+    if lay.has_pitch:
+        yield Block(
+            'chassis_pitch',
+            lambda nn: ChassisPitchComp(a=lay.a, I=spec.I, forces=forces, **_kw(spec, nn)),
+        )
     if lay.has_roll:
         yield Block(
             'chassis_roll',
@@ -300,7 +376,7 @@ def _chassis_mounted(spec: VehicleSpec) -> list[Block]:
     lay = spec.layout
     roll = lay.has_roll
     width = ChassisMountDynamicsComp(modules=spec.modules, num_nodes=1).width
-    mount = {'a': lay.a, 'y': lay.y, 'roll': roll, 'side': spec.side, 'width': width}
+    mount = {'a': lay.a, 'y': lay.y, 'side': spec.side, 'width': width, **_dofs(spec)}
     forces = _forces(spec)
     return [
         *_linkage_kinematics(spec),

@@ -47,6 +47,7 @@ class SeatAccelerationComp(om.ExplicitComponent):
             desc='seat positions left of the CG [m]',
         )
         self.options.declare('roll', types=bool, default=False, desc='the chassis rolls')
+        self.options.declare('pitch', types=bool, default=True, desc='the chassis pitches')
 
     def _positions(self) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(self.options['x'], dtype=float).ravel()
@@ -59,7 +60,9 @@ class SeatAccelerationComp(om.ExplicitComponent):
     def setup(self) -> None:
         nn = self.options['num_nodes']
         x, y = self._positions()
-        levers = [('zdd_C', 'm/s**2', np.ones_like(x)), ('thdd_C', 'rad/s**2', -x)]
+        levers = [('zdd_C', 'm/s**2', np.ones_like(x))]
+        if self.options['pitch']:
+            levers.append(('thdd_C', 'rad/s**2', -x))
         if self.options['roll']:
             levers.append(('phidd_C', 'rad/s**2', y))
         ns = x.size
@@ -81,9 +84,11 @@ class SeatAccelerationComp(om.ExplicitComponent):
 
     def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
         """The seat accelerations (the vehicle assembly's equation)."""
-        phidd = inputs['phidd_C'] if self.options['roll'] else 0.0
+        o = self.options
+        thdd = inputs['thdd_C'] if o['pitch'] else 0.0
+        phidd = inputs['phidd_C'] if o['roll'] else 0.0
         x, y = self._positions()
-        return {'a_seat': eq.seat_acceleration(inputs['zdd_C'], inputs['thdd_C'], phidd, x, y)}
+        return {'a_seat': eq.seat_acceleration(inputs['zdd_C'], thdd, phidd, x, y)}
 
     def compute(self, inputs, outputs) -> None:
         outputs['a_seat'] = self.evaluate(inputs)['a_seat']

@@ -95,11 +95,23 @@ def wheel_acceleration(F_T: ArrayLike, F: ArrayLike, m: ArrayLike) -> np.ndarray
     return (np.asarray(F_T) - np.asarray(F)) / m
 
 
-def objective_integrands(chassis_accelerations: list[ArrayLike], wheel_z: ArrayLike) -> np.ndarray:
-    """Integrands of the objective terms (eq. 4, SPEC §5), stacked on the last axis: the
-    squared chassis accelerations (heave, pitch[, roll]) then each wheel's squared travel."""
-    chassis = np.stack([np.square(x) for x in chassis_accelerations], axis=-1)
-    return np.concatenate([chassis, np.square(wheel_z)], axis=-1)
+def suspension_travel(z_W: ArrayLike, z_M: ArrayLike) -> np.ndarray:
+    """Suspension travel at each corner, the wheel relative to the chassis above it,
+    positive in bump: ``s = z_W - z_M`` (the deflection of eq. 9)."""
+    return np.asarray(z_W) - np.asarray(z_M)
+
+
+def tyre_load_ratio(F_T: ArrayLike, static: ArrayLike) -> np.ndarray:
+    """The dynamic tyre load relative to the static load, ``F_T / F_static``; the tyre
+    lifts off where it reaches -1."""
+    return np.asarray(F_T) / np.asarray(static)
+
+
+def squared_signals(signals: list[ArrayLike]) -> np.ndarray:
+    """The objective's integrands (eq. 4, extended; ``docs/metrics.md``): the squares of
+    the metric signals, each (N,) or (N, width), stacked as columns (N, terms)."""
+    cols = [np.square(np.asarray(s)) for s in signals]
+    return np.concatenate([c[..., None] if c.ndim == 1 else c for c in cols], axis=-1)
 
 
 # ---------------------------------------------------------------- chassis-mounted modules
@@ -110,17 +122,21 @@ def mount_rotation(phi_C: ArrayLike, side: ArrayLike) -> np.ndarray:
     return np.asarray(phi_C)[..., None] * np.asarray(side, dtype=float)
 
 
-def mount_map(a: ArrayLike, y: ArrayLike, side: ArrayLike, roll: bool) -> np.ndarray:
+def mount_map(
+    a: ArrayLike, y: ArrayLike, side: ArrayLike, roll: bool, pitch: bool = True
+) -> np.ndarray:
     """``L`` (corners, mount coordinates, chassis coordinates): the mount's accelerations
     (vertical of P; the frame's rotation with ``roll``) from the chassis accelerations
-    (heave, pitch[, roll]), ``z_M = z_C - a θ_C + y φ_C``, ``ψ = side φ_C``. Its transpose
+    (heave[, pitch][, roll]), ``z_M = z_C - a θ_C + y φ_C``, ``ψ = side φ_C``. Its transpose
     maps the mount's generalized forces (F_z, M_P) to the chassis' (power balance)."""
     a, y, side = (np.asarray(v, dtype=float) for v in (a, y, side))
     nc = a.size
-    L = np.zeros((nc, 2 if roll else 1, 3 if roll else 2))
-    L[:, 0, 0], L[:, 0, 1] = 1.0, -a
+    L = np.zeros((nc, 2 if roll else 1, 1 + int(pitch) + int(roll)))
+    L[:, 0, 0] = 1.0
+    if pitch:
+        L[:, 0, 1] = -a
     if roll:
-        L[:, 0, 2], L[:, 1, 2] = y, side
+        L[:, 0, -1], L[:, 1, -1] = y, side
     return L
 
 

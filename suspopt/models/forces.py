@@ -18,9 +18,12 @@ class MountMotionComp(NodeComponent):
         self.options.declare('a', types=np.ndarray, desc='corner positions ahead of the CG [m]')
         self.options.declare('y', types=np.ndarray, desc='corner positions left of the CG [m]')
         self.options.declare('roll', types=bool, default=False, desc='the chassis rolls')
+        self.options.declare('pitch', types=bool, default=True, desc='the chassis pitches')
 
     def _pairs(self):
-        chassis = [('z_C', 'v_C', 'm', 'm/s', 1.0), ('theta_C', 'omega_C', 'rad', 'rad/s', -1.0)]
+        chassis = [('z_C', 'v_C', 'm', 'm/s', 1.0)]
+        if self.options['pitch']:
+            chassis.append(('theta_C', 'omega_C', 'rad', 'rad/s', -1.0))
         if self.options['roll']:
             chassis.append(('phi_C', 'p_C', 'rad', 'rad/s', 1.0))
         return chassis
@@ -28,7 +31,7 @@ class MountMotionComp(NodeComponent):
     def setup(self) -> None:
         nn, nc = self._shape
         a, y = self.options['a'], self.options['y']
-        levers = [np.ones(nc), -a, y]
+        levers = [np.ones(nc)] + ([-a] if self.options['pitch'] else []) + [y]
         for (pos, vel, pu, vu, _), lever in zip(self._pairs(), levers):
             self.add_input(pos, shape=(nn,), units=pu)
             self.add_input(vel, shape=(nn,), units=vu)
@@ -40,14 +43,19 @@ class MountMotionComp(NodeComponent):
 
     def evaluate(self, inputs):
         o = self.options
-        roll = o['roll']
+        pitch, roll = o['pitch'], o['roll']
         return {
-            'z_M': eq.mount_motion(
-                inputs['z_C'], inputs['theta_C'], inputs['phi_C'] if roll else 0.0, o['a'], o['y']
-            ),
-            'v_M': eq.mount_motion(
-                inputs['v_C'], inputs['omega_C'], inputs['p_C'] if roll else 0.0, o['a'], o['y']
-            ),
+            pos: eq.mount_motion(
+                inputs[z],
+                inputs[th] if pitch else 0.0,
+                inputs[ph] if roll else 0.0,
+                o['a'],
+                o['y'],
+            )
+            for pos, z, th, ph in (
+                ('z_M', 'z_C', 'theta_C', 'phi_C'),
+                ('v_M', 'v_C', 'omega_C', 'p_C'),
+            )
         }
 
 

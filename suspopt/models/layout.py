@@ -2,9 +2,10 @@
 
 Every per-wheel quantity in suspopt (wheel travel, suspension and tyre forces, design
 settings, road input, objective terms) is an array over the vehicle's *corners*, like
-Dymos' arrays over nodes. The half car of the paper has two corners on one wheel track
-(``1`` front, ``2`` rear axle, paper eqs. 5-10); the full car has four on two tracks
-(``1L``, ``1R``, ``2L``, ``2R``).
+Dymos' arrays over nodes. The quarter car has one corner (``1``) under a sprung mass that
+only heaves; the half car of the paper has two corners on one wheel track (``1`` front,
+``2`` rear axle, paper eqs. 5-10) under a chassis that heaves and pitches; the full car has
+four on two tracks (``1L``, ``1R``, ``2L``, ``2R``) under a chassis that also rolls.
 
 Sign conventions (SPEC §2, extended): z up; pitch θ positive nose down; roll φ positive
 left side up; ``a`` measured forward from the chassis centre of gravity (``a < 0`` at the
@@ -60,8 +61,22 @@ class VehicleLayout:
         return tuple(c.label for c in self.corners)
 
     @property
+    def has_pitch(self) -> bool:
+        return self.model != 'quarter_car'
+
+    @property
     def has_roll(self) -> bool:
         return self.model == 'full_car'
+
+    @property
+    def dofs(self) -> tuple[str, ...]:
+        """The chassis' degrees of freedom: ``heave``, ``pitch`` (not the quarter car),
+        ``roll`` (the full car)."""
+        return (
+            ('heave',)
+            + (('pitch',) if self.has_pitch else ())
+            + (('roll',) if self.has_roll else ())
+        )
 
     @property
     def n_tracks(self) -> int:
@@ -99,6 +114,11 @@ class VehicleLayout:
             if left and right:
                 out.append((ax, left[0], right[0]))
         return out
+
+
+def quarter_car() -> VehicleLayout:
+    """The quarter car: one wheel under its share of the sprung mass, which only heaves."""
+    return VehicleLayout('quarter_car', (Corner(0, 0, 0.0, 0.0),))
 
 
 def half_car(a_front: float, a_rear: float) -> VehicleLayout:

@@ -55,17 +55,22 @@ class _MountComp(NodeComponent):
         self.options.declare('y', types=np.ndarray, desc='corner positions left of the CG [m]')
         self.options.declare('side', types=np.ndarray, desc='+1 left, -1 right, 0 centre')
         self.options.declare('roll', types=bool, default=False, desc='the chassis rolls')
+        self.options.declare('pitch', types=bool, default=True, desc='the chassis pitches')
         self.options.declare('width', types=int, desc='entries of a module response')
 
     @property
     def _L(self) -> np.ndarray:
         o = self.options
-        return eq.mount_map(o['a'], o['y'], o['side'], o['roll'])
+        return eq.mount_map(o['a'], o['y'], o['side'], o['roll'], o['pitch'])
 
     @property
     def _chassis(self) -> tuple[tuple[str, str], ...]:
-        out = (('zdd_C', 'm/s**2'), ('thdd_C', 'rad/s**2'))
-        return out + ((('phidd_C', 'rad/s**2'),) if self.options['roll'] else ())
+        o = self.options
+        return (
+            (('zdd_C', 'm/s**2'),)
+            + ((('thdd_C', 'rad/s**2'),) if o['pitch'] else ())
+            + ((('phidd_C', 'rad/s**2'),) if o['roll'] else ())
+        )
 
     def _add_response(self) -> tuple[int, int]:
         nn, nc = self._shape
@@ -93,7 +98,7 @@ class ChassisMountComp(_MountComp):
     def initialize(self) -> None:
         super().initialize()
         self.options.declare('M', types=float, desc='chassis (sprung) mass [kg]')
-        self.options.declare('I', types=float, desc='chassis pitch inertia [kg m^2]')
+        self.options.declare('I', types=float, default=1.0, desc='pitch inertia [kg m^2]')
         self.options.declare('I_x', types=float, default=1.0, desc='roll inertia [kg m^2]')
         self.options.declare(
             'forces',
@@ -128,7 +133,7 @@ class ChassisMountComp(_MountComp):
         nu = self._L.shape[1]
         F0, G = eq.mount_forces(R, nu)
         F_R = sum(inputs[f] for f in o['forces']) if o['forces'] else np.zeros(R.shape[:2])
-        inertia = [o['M'], o['I']] + ([o['I_x']] if o['roll'] else [])
+        inertia = [o['M']] + ([o['I']] if o['pitch'] else []) + ([o['I_x']] if o['roll'] else [])
         return eq.chassis_mount_accelerations(F0, G, F_R, self._L, inertia), G, inertia
 
     def evaluate(self, inputs):

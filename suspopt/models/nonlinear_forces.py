@@ -1,12 +1,12 @@
 """Nonlinear suspension force of the low-fidelity model: eq. 9 with curves for the spring,
-the damper and the stops (:mod:`suspopt.models.curves`)."""
+the damper and the stops (:mod:`suspopt.curves`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from suspopt.curves import SpringDamperUnit
 from suspopt.models.base import NodeComponent
-from suspopt.models.curves import SpringDamperUnit
 
 
 class NonlinearSuspensionForceComp(NodeComponent):
@@ -16,7 +16,7 @@ class NonlinearSuspensionForceComp(NodeComponent):
 
     positive pushing the chassis up (the :class:`~suspopt.models.forces.SuspensionForceComp`
     convention: bump positive). The option ``unit`` (a
-    :class:`~suspopt.models.curves.SpringDamperUnit`) fixes the curves' forms (polynomial
+    :class:`~suspopt.curves.SpringDamperUnit`) fixes the curves' forms (polynomial
     degree, table points, blend widths, which stops); every curve parameter is a
     per-corner input of its name, units and size (:meth:`SpringDamperUnit.parameters`),
     defaulting to the unit's values, so any of them can be a design variable. With

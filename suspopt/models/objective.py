@@ -1,62 +1,17 @@
-"""The objective (paper eq. 4, SPEC §5): integrands along the trajectory, their integrals
-by the collocation's quadrature, and the normalized weighted sum."""
+"""The objective (paper eq. 4, ``docs/model.md``): the terms' integrals by the
+collocation's quadrature (their integrands are the metrics' squares,
+:class:`~suspopt.models.metrics.SquaredSignalsComp`), the normalized weighted sum, and the
+scenarios' aggregate."""
 
 from __future__ import annotations
 
 import numpy as np
 import openmdao.api as om
 
-from suspopt.models import equations as eq
-from suspopt.models.base import NodeComponent
+from suspopt.models import metrics
 
-#: units of each term's integral, by the start of its name
-TERM_UNITS = {'heave': '(m/s²)²·s', 'pitch': '(rad/s²)²·s', 'roll': '(rad/s²)²·s', 'wheel': 'm²·s'}
-
-
-def term_units(term: str) -> str:
-    return TERM_UNITS[term.split('_')[0]]
-
-
-class ObjectiveIntegrandComp(NodeComponent):
-    """Integrands of the objective terms (eq. 4): ``z''_C², θ''_C²`` (and ``φ''_C²``) and
-    every wheel's travel squared. The output ``dJ_dt`` (num_nodes × terms) is integrated
-    over the horizon by :class:`ObjectiveQuadratureComp`; its columns have different units
-    (:data:`TERM_UNITS`), so the vector is declared unitless."""
-
-    def initialize(self) -> None:
-        super().initialize()
-        self.options.declare('roll', types=bool, default=False)
-
-    def _chassis(self) -> tuple[tuple[str, str], ...]:
-        out = (('zdd_C', 'm/s**2'), ('thdd_C', 'rad/s**2'))
-        return out + ((('phidd_C', 'rad/s**2'),) if self.options['roll'] else ())
-
-    def setup(self) -> None:
-        nn, nc = self._shape
-        chassis = self._chassis()
-        nt = len(chassis) + nc
-        for name, units in chassis:
-            self.add_input(name, shape=(nn,), units=units)
-        self.add_input('wheel_z', shape=(nn, nc), units='m', desc='wheel displacement')
-        self.add_output('dJ_dt', shape=(nn, nt), units=None, desc='integrand of each term')
-        ar = np.arange(nn)
-        for k, (name, _) in enumerate(chassis):
-            self.declare_partials('dJ_dt', name, rows=nt * ar + k, cols=ar)
-        self.declare_partials(
-            'dJ_dt',
-            'wheel_z',
-            rows=(nt * ar[:, None] + len(chassis) + np.arange(nc)).ravel(),
-            cols=np.arange(nn * nc),
-        )
-
-    def evaluate(self, inputs):
-        chassis = [inputs[n] for n, _ in self._chassis()]
-        return {'dJ_dt': eq.objective_integrands(chassis, inputs['wheel_z'])}
-
-    def compute_partials(self, inputs, partials) -> None:
-        for name, _ in self._chassis():
-            partials['dJ_dt', name] = 2.0 * inputs[name]
-        partials['dJ_dt', 'wheel_z'] = 2.0 * inputs['wheel_z'].ravel()
+#: units of each term's integral (stated in the metrics table)
+term_units = metrics.term_units
 
 
 class ObjectiveQuadratureComp(om.ExplicitComponent):

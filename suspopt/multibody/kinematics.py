@@ -31,7 +31,7 @@ suspension spring (the ``spring`` role):
   the file's frame; infinite for a translating wheel, :data:`FAR`) is
   ``r + perp(ṙ)/φ̇`` of that body.
 
-A suspension spring with curves (:mod:`suspopt.models.curves`: a progressive spring,
+A suspension spring with curves (:mod:`suspopt.curves`: a progressive spring,
 bump and rebound stops) replaces ``½ k s²`` by its elastic energy ``E(x)``, ``x = -s``
 the compression: wheel force ``-F(x) s_w`` and wheel rate ``F'(x) s_w² - F(x) s_ww``
 (``F = dE/dx``, spring and stops), so the wheel rate jumps up smoothly where a stop makes

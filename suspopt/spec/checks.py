@@ -55,30 +55,54 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
     """Problems across keys; with ``sized`` (every value read), the grid and NLP size
     too (not with values already refused: their messages would repeat the cause)."""
     errs = Problems()
-    v = cfg.vehicle
-    if math.isfinite(v.wheelbase) and v.wheelbase <= 0.0:
+    errs.extend(_vehicle_checks(cfg.vehicle))
+    errs.extend(_design_checks(cfg))
+    errs.extend(_objective_checks(cfg))
+    errs.extend(_comfort_checks(cfg))
+    errs.extend(_constraint_checks(cfg))
+    errs.extend(_numerics_checks(cfg))
+    n_tracks = cfg.layout().n_tracks if layout_ok(cfg.vehicle) else 1
+    errs.extend(_road_checks(cfg.road, 'road', cfg.maneuver.speed * cfg.maneuver.horizon, n_tracks))
+    errs.extend(_scenario_checks(cfg, n_tracks))
+    errs.extend(_mechanism_checks(cfg))
+    if not errs and sized:
+        errs.extend(_size_checks(cfg))
+    return list(errs)
+
+
+def _vehicle_checks(v: VehicleConfig) -> list[str]:
+    errs = Problems()
+    axles = ('front',) if v.model == 'quarter_car' else ('front', 'rear')
+    if v.model == 'quarter_car':
+        if v.front.axle_position != 0.0:
+            errs.add(
+                'vehicle.front.axle_position',
+                "a quarter car's wheel is under its centre "
+                f'of mass (0), got {v.front.axle_position:g}',
+            )
+    elif math.isfinite(v.wheelbase) and v.wheelbase <= 0.0:
         errs.add(
             'vehicle.front.axle_position',
             f'must be ahead of vehicle.rear.axle_position '
             f'({v.front.axle_position:g} <= {v.rear.axle_position:g})',
         )
-    for axle in ('front', 'rear'):
+    for axle in axles:
         ax = getattr(v, axle)
         if v.model == 'full_car':
             if not ax.track > 0.0:
                 errs.add(f'vehicle.{axle}.track', f'must be > 0 (full car), got {ax.track:g}')
-        else:
-            if ax.track != 0.0:
-                errs.add(
-                    f'vehicle.{axle}.track',
-                    "only the full car has a track width (vehicle.model = 'full_car')",
-                )
-            if ax.anti_roll_bar:
-                errs.add(
-                    f'vehicle.{axle}.anti_roll_bar',
-                    'a half car has no left and right '
-                    "wheels to couple (vehicle.model = 'full_car')",
-                )
+            continue
+        if ax.track != 0.0:
+            errs.add(
+                f'vehicle.{axle}.track',
+                "only the full car has a track width (vehicle.model = 'full_car')",
+            )
+        if ax.anti_roll_bar:
+            errs.add(
+                f'vehicle.{axle}.anti_roll_bar',
+                f'a {v.model.replace("_", " ")} has no left and right '
+                "wheels to couple (vehicle.model = 'full_car')",
+            )
     if v.model == 'full_car' and not v.chassis_roll_inertia > 0.0:
         errs.add(
             'vehicle.chassis_roll_inertia',
@@ -88,6 +112,13 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
         errs.add(
             'vehicle.chassis_roll_inertia', "only the full car rolls (vehicle.model = 'full_car')"
         )
+    if v.model != 'quarter_car' and not v.chassis_pitch_inertia > 0.0:
+        errs.add('vehicle.chassis_pitch_inertia', f'must be > 0, got {v.chassis_pitch_inertia:g}')
+    return list(errs)
+
+
+def _design_checks(cfg: StudyConfig) -> list[str]:
+    errs = Problems()
     for name, dv in cfg.design.variables.items():
         key = f'design.{name}'
         vals = (dv.initial, dv.lower, dv.upper)
@@ -113,27 +144,35 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
                 f'{key}.initial',
                 f'{dv.initial:g} is outside the bounds [{dv.lower:g}, {dv.upper:g}]',
             )
-    obj = cfg.objective
+    return list(errs)
+
+
+def _objective_checks(cfg: StudyConfig) -> list[str]:
+    errs = Problems()
+    obj, v = cfg.objective, cfg.vehicle
     w = list(obj.weights.values())
     if w and (any(x < 0.0 for x in w) or not any(x > 0.0 for x in w)):
-        errs.add('objective.weights', f'must be >= 0 and not all zero, got {obj.weights}')
+        weighted = {t: x for t, x in obj.weights.items() if x}
+        errs.add('objective.weights', f'must be >= 0 and not all zero, got {weighted}')
     if obj.normalization not in NORMALIZATIONS:
         errs.add(
             'objective.normalization',
             f'must be one of {", ".join(NORMALIZATIONS)}, got '
             f'{obj.normalization!r}{did_you_mean(obj.normalization, NORMALIZATIONS)}',
         )
-    terms = cfg.terms() if layout_ok(v) else ()
+    weighted_terms = [t for t, x in obj.weights.items() if x > 0.0]
     if obj.normalization == 'custom':
-        if set(obj.scales) != set(terms) or any(not s > 0.0 for s in obj.scales.values()):
+        missing = [t for t in weighted_terms if not obj.scales.get(t, 0.0) > 0.0]
+        if missing:
             errs.add(
                 'objective.scales',
-                f'custom normalization needs a positive scale for '
-                f'each term ({", ".join(terms)}), got {obj.scales}',
+                'custom normalization needs a positive scale for every weighted term '
+                f'({", ".join(missing)} missing), got {obj.scales}',
             )
     elif obj.scales:
         errs.add('objective.scales', "only used with normalization = 'custom'")
-    if obj.normalization == 'paper' and v.model != 'half_car':
+    paper = {'heave', 'pitch', 'wheel_1', 'wheel_2'}
+    if obj.normalization == 'paper' and (v.model != 'half_car' or set(weighted_terms) - paper):
         errs.add(
             'objective.normalization',
             "the paper's scales are for the half car's four terms; use 'reference' or 'custom'",
@@ -144,6 +183,103 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
             f'must be one of {", ".join(AGGREGATES)}, got '
             f'{obj.aggregate!r}{did_you_mean(obj.aggregate, AGGREGATES)}',
         )
+    return list(errs)
+
+
+def _comfort_checks(cfg: StudyConfig) -> list[str]:
+    """Every seat named once and on the chassis: between the axles and within the
+    track (full car), on the centre line (half car: it does not roll), at the centre of
+    mass (quarter car: it only heaves)."""
+    errs = Problems()
+    v = cfg.vehicle
+    names: set[str] = set()
+    for i, seat in enumerate(cfg.comfort.seats):
+        key = f'comfort.seats[{i}]'
+        if not seat.name.isidentifier():
+            errs.add(f'{key}.name', f'must be a name of letters, digits and _, got {seat.name!r}')
+        elif seat.name in names:
+            errs.add(f'{key}.name', f'duplicate seat name {seat.name!r}')
+        names.add(seat.name)
+        if v.model == 'quarter_car':
+            if seat.x != 0.0 or seat.y != 0.0:
+                errs.add(key, 'a quarter car only heaves: its seat is at x = y = 0')
+            continue
+        a1, a2 = v.front.axle_position, v.rear.axle_position
+        if math.isfinite(seat.x) and not a2 <= seat.x <= a1:
+            errs.add(
+                f'{key}.x',
+                f'{seat.x:g} m is outside the chassis: between the rear and '
+                f'front axles ({a2:g} to {a1:g} m ahead of the centre of gravity)',
+            )
+        half = min(v.front.track, v.rear.track) / 2 if v.model == 'full_car' else 0.0
+        if math.isfinite(seat.y) and abs(seat.y) > half:
+            where = (
+                f'within the track (|y| <= {half:g} m)'
+                if v.model == 'full_car'
+                else 'on the centre line (y = 0: a half car does not roll)'
+            )
+            errs.add(f'{key}.y', f'{seat.y:g} m is outside the chassis: {where}')
+    return list(errs)
+
+
+def _band(value: tuple[float, ...], key: str, lo: float, hi: float, unit: str) -> list[str]:
+    """A [lower, upper] band within [lo, hi]."""
+    if not value:
+        return []
+    if len(value) != 2 or not lo <= value[0] < value[1] <= hi:
+        return [
+            f'{key}: must be [lower, upper] with {lo:g} <= lower < upper <= {hi:g}{unit}, '
+            f'got {list(value)}'
+        ]
+    return []
+
+
+def _constraint_checks(cfg: StudyConfig) -> list[str]:
+    errs = Problems()
+    c, v = cfg.constraints, cfg.vehicle
+    if c.travel.enabled and not (c.travel.bump > 0.0 or c.travel.rebound > 0.0):
+        errs.add('constraints.travel', 'give the bump and/or rebound travel [m] (> 0)')
+    if c.tyre_contact.enabled and not 0.0 <= c.tyre_contact.margin < 1.0:
+        errs.add(
+            'constraints.tyre_contact.margin',
+            'must be in [0, 1) (the share of the static '
+            f'load the tyre keeps), got {c.tyre_contact.margin:g}',
+        )
+    rg = c.roll_gradient
+    if rg.enabled:
+        if v.model != 'full_car':
+            errs.add(
+                'constraints.roll_gradient', "only the full car rolls (vehicle.model = 'full_car')"
+            )
+        elif not v.cg_height > 0.0:
+            errs.add(
+                'vehicle.cg_height',
+                "the roll gradient needs the centre of gravity's height above ground (> 0)",
+            )
+        for name in ('min', 'max'):
+            if getattr(rg, name) < 0.0:
+                errs.add(
+                    f'constraints.roll_gradient.{name}',
+                    f'must be >= 0 deg/g, got {getattr(rg, name):g}',
+                )
+        if rg.max and rg.min > rg.max:
+            errs.add('constraints.roll_gradient.min', f'{rg.min:g} is above max {rg.max:g}')
+        if not (rg.min or rg.max or rg.front_share):
+            errs.add('constraints.roll_gradient', 'give min, max [deg/g] and/or front_share')
+        errs.extend(_band(rg.front_share, 'constraints.roll_gradient.front_share', 0.0, 1.0, ''))
+    rf = c.ride_frequency
+    if rf.enabled:
+        if not (rf.heave or rf.pitch):
+            errs.add('constraints.ride_frequency', 'give heave and/or pitch [lower, upper] Hz')
+        errs.extend(_band(rf.heave, 'constraints.ride_frequency.heave', 0.0, 20.0, ' Hz'))
+        errs.extend(_band(rf.pitch, 'constraints.ride_frequency.pitch', 0.0, 20.0, ' Hz'))
+        if rf.pitch and v.model == 'quarter_car':
+            errs.add('constraints.ride_frequency.pitch', 'a quarter car does not pitch')
+    return list(errs)
+
+
+def _numerics_checks(cfg: StudyConfig) -> list[str]:
+    errs = Problems()
     tr = cfg.transcription
     if 0 < tr.order < 2:  # Radau with one point per segment degenerates (order <= 0: above)
         errs.add('transcription.order', f'must be >= 2 (Radau points per segment), got {tr.order}')
@@ -151,7 +287,7 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
     op = cfg.optimizer
     if not 0 <= op.print_level <= 12:
         errs.add('optimizer.print_level', f'must be 0..12 (IPOPT), got {op.print_level}')
-    if op.options:  # checked on IPOPT itself (the driver's imports: only when needed)
+    if op.options:  # checked on IPOPT itself (IPOPT is imported only when needed)
         from suspopt.driver import ipopt_option_problems
 
         errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
@@ -170,8 +306,11 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
             f'must be one of {", ".join(MOUNTS)}, got '
             f'{cfg.multibody.mount!r}{did_you_mean(cfg.multibody.mount, MOUNTS)}',
         )
-    n_tracks = 2 if v.model == 'full_car' else 1
-    errs.extend(_road_checks(cfg.road, 'road', cfg.maneuver.speed * cfg.maneuver.horizon, n_tracks))
+    return list(errs)
+
+
+def _scenario_checks(cfg: StudyConfig, n_tracks: int) -> list[str]:
+    errs = Problems()
     names = set()
     for i, sc in enumerate(cfg.scenario):
         key = f'scenario[{i}]'
@@ -193,9 +332,6 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
         if sc.road:
             length = (sc.speed or cfg.maneuver.speed) * (sc.horizon or cfg.maneuver.horizon)
             errs.extend(_road_checks(sc.road, f'{key}.road', length, n_tracks))
-    errs.extend(_mechanism_checks(cfg))
-    if not errs and sized:
-        errs.extend(_size_checks(cfg))
     return list(errs)
 
 
@@ -355,7 +491,8 @@ def _mechanism_checks(cfg: StudyConfig) -> list[str]:
 
     errs = []
     seen: dict[str, Any] = {}
-    for i, axle in enumerate(('front', 'rear')):
+    axles = ('front',) if cfg.vehicle.model == 'quarter_car' else ('front', 'rear')
+    for i, axle in enumerate(axles):
         name = getattr(cfg.vehicle, axle).mechanism
         key = f'vehicle.{axle}.mechanism'
         if name not in seen:
@@ -388,4 +525,3 @@ def _mechanism_checks(cfg: StudyConfig) -> list[str]:
                 )
                 break
     return errs
-

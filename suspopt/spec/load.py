@@ -17,6 +17,7 @@ from typing import Any
 
 from suspopt.errors import ConfigError
 from suspopt.models.design import design_kind
+from suspopt.models.metrics import term_groups
 from suspopt.road import TWO_TRACKS
 from suspopt.spec.checks import canonical_road, layout_ok, semantic_checks
 from suspopt.spec.schema import (
@@ -28,9 +29,9 @@ from suspopt.spec.schema import (
     VehicleConfig,
     default_weights,
     design_names,
-    objective_terms,
 )
 from suspopt.spec.values import Problems, did_you_mean, is_number, parse_dataclass
+from suspopt.spec.vehicles import BMW_E90, QUARTER_CAR
 
 
 def full_car_defaults() -> StudyConfig:
@@ -39,12 +40,38 @@ def full_car_defaults() -> StudyConfig:
     sprung mass, roll and pitch inertia, CG position, tracks, tyre rate; spring and damper
     rates of its front MacPherson and rear double wishbone as wheel rates; anti-roll bars.
     Driven over an ISO 8608 class C road (isotropic left/right coherence) at 20 m/s."""
-    from suspopt.spec.vehicles import BMW_E90
-
     return config_from_dict(BMW_E90)
 
 
 _TABLE_REPLACED = ('road', 'options', 'weights', 'scales')
+
+#: the default car of each vehicle model besides the paper's half car (the schema's)
+MODEL_DEFAULTS: dict[str, dict[str, Any]] = {'full_car': BMW_E90, 'quarter_car': QUARTER_CAR}
+
+
+def _model_problems(model: str, data: dict[str, Any]) -> list[str]:
+    """Keys the vehicle model has no use for: a quarter car has one corner (``front``) at
+    its centre of mass and does not pitch."""
+    vehicle = data.get('vehicle')
+    if model != 'quarter_car' or not isinstance(vehicle, dict):
+        return []
+    out = []
+    if 'rear' in vehicle:
+        out.append('vehicle.rear: a quarter car has one corner (vehicle.front)')
+    if 'chassis_pitch_inertia' in vehicle:
+        out.append('vehicle.chassis_pitch_inertia: a quarter car does not pitch')
+    return out
+
+
+def _enable_given_constraints(full: dict[str, Any], data: dict[str, Any]) -> None:
+    """A constraint applies when its table is given (``enabled`` unless the table says)."""
+    given = data.get('constraints')
+    if not isinstance(given, dict):
+        return
+    for name, table in given.items():
+        target = full.get('constraints', {}).get(name)
+        if isinstance(table, dict) and isinstance(target, dict) and 'enabled' not in table:
+            target['enabled'] = True
 
 
 def _merge(base: dict, override: dict) -> dict:
@@ -102,8 +129,44 @@ def _parse_design(
     return DesignConfig(per_corner=per_corner, variables=variables)
 
 
+def _paper_terms(terms: tuple[str, ...]) -> tuple[str, ...]:
+    """The terms of the paper's eq. 4 among ``terms``: the chassis' and the wheels'."""
+    return tuple(t for t in terms if t in ('heave', 'pitch', 'roll') or t.startswith('wheel_'))
+
+
+def _parse_weights(data: Any, terms: tuple[str, ...], errs: Problems) -> dict[str, float]:
+    """The objective weights by term; a list in term order (every term, or the paper's
+    terms: the chassis' and the wheels'); or by group: a group's weight (``tyre_load =
+    0.5``) is split equally among its terms (every corner's ``tyre_load_<c>``), and a term
+    named on its own takes its own weight."""
+    paper = _paper_terms(terms)
+    if isinstance(data, (list, tuple)):
+        if len(data) not in (len(paper), len(terms)):
+            errs.add(
+                'objective.weights',
+                f'needs {len(paper)} values (the paper\'s terms: {", ".join(paper)}) or '
+                f'{len(terms)} (every term: {", ".join(terms)}), got {len(data)}',
+            )
+            return {}
+        data = dict(zip(paper if len(data) == len(paper) else terms, data))
+    groups = term_groups(terms) if isinstance(data, dict) else {}
+    if groups:
+        expanded: dict[str, Any] = {}
+        for k, v in data.items():
+            if k in groups and is_number(v):
+                expanded.update({t: v / len(groups[k]) for t in groups[k]})
+        expanded.update({k: v for k, v in data.items() if k not in groups})
+        data = expanded
+    return _parse_named(data, terms, 'objective.weights', errs, 0.0, groups=tuple(groups))
+
+
 def _parse_named(
-    data: Any, terms: tuple[str, ...], key: str, errs: Problems, missing: float | None
+    data: Any,
+    terms: tuple[str, ...],
+    key: str,
+    errs: Problems,
+    missing: float | None,
+    groups: tuple[str, ...] = (),
 ) -> dict[str, float]:
     """A table of numbers by objective term, or a list in term order."""
     if isinstance(data, (list, tuple)):
@@ -120,8 +183,10 @@ def _parse_named(
             errs.add(
                 f'{key}.{k}',
                 'unknown term'
-                + did_you_mean(k, terms)
-                + f' (terms of this car: {", ".join(terms)})',
+                + did_you_mean(k, terms + groups)
+                + f' (terms of this car: {", ".join(terms)}'
+                + (f'; groups: {", ".join(groups)}' if groups else '')
+                + ')',
             )
         elif not is_number(v) or not math.isfinite(v):
             errs.add(f'{key}.{k}', f'must be a finite number, got {v!r}')
@@ -150,13 +215,14 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
             + did_you_mean(str(model), MODELS)
         )
     defaults = StudyConfig().to_dict()
-    if model == 'full_car':
-        from suspopt.spec.vehicles import BMW_E90
-
-        defaults = _merge(defaults, BMW_E90)
-        defaults['design'] = BMW_E90['design']
-        defaults['objective']['weights'] = {}
+    car = MODEL_DEFAULTS.get(model)
+    if car is not None:
+        defaults = _merge(defaults, car)
+        defaults['design'] = car['design']
+        defaults['objective']['weights'] = car.get('objective', {}).get('weights', {})
+    errs.extend(_model_problems(model, data))
     full = _merge(defaults, {k: v for k, v in data.items() if k not in ('design',)})
+    _enable_given_constraints(full, data)
     for key in ('road',):
         if isinstance(data.get(key), dict):
             full[key] = dict(data[key])  # a road table replaces the default, not merges
@@ -168,16 +234,23 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
     design = _parse_design(
         design_data if design_data is not None else {}, cfg.vehicle, errs, defaults['design']
     )
-    terms = objective_terms(cfg.vehicle.layout()) if layout_ok(cfg.vehicle) else ()
+    terms = cfg.terms() if layout_ok(cfg.vehicle) else ()
     weights = (
-        _parse_named(weights_data, terms, 'objective.weights', errs, 0.0)
+        _parse_weights(weights_data, terms, errs)
         if weights_data not in (None, {})
         else default_weights(cfg.vehicle.layout())
         if terms
         else {}
     )
-    scales = (
-        _parse_named(scales_data, terms, 'objective.scales', errs, None)
+    weighted = tuple(t for t in terms if weights.get(t, 0.0) > 0.0)
+    scales = (  # a list: the weighted terms' scales, in term order
+        _parse_named(
+            scales_data,
+            weighted if isinstance(scales_data, list) else terms,
+            'objective.scales',
+            errs,
+            None,
+        )
         if scales_data not in (None, {}, [])
         else {}
     )
@@ -199,15 +272,6 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
             for s in cfg.scenario
         ),
     )
-
-
-
-
-
-
-
-
-
 
 
 def _resolve_paths(cfg: StudyConfig, base_dir: str | Path | None) -> StudyConfig:
@@ -265,4 +329,3 @@ def load_config(path: str | Path) -> StudyConfig:
         return config_from_dict(data, base_dir=path.parent)
     except ConfigError as err:
         raise ConfigError([f'{path}: {p}' for p in err.problems]) from None
-

@@ -34,6 +34,7 @@ from suspopt.road import road_tracks
 if TYPE_CHECKING:  # the schema builds on this module; only its types are used here
     from suspopt.spec.schema import StudyConfig
 
+
 @dataclass(frozen=True)
 class Scenario:
     """A resolved load case (every value set)."""
@@ -149,7 +150,7 @@ def resolve_segments(config: StudyConfig, scenario: Scenario, segments: Any) -> 
 def nlp_size(config: StudyConfig, scenario: Scenario) -> int:
     """Number of NLP variables of one scenario (its discretized states), before building it."""
     layout = config.layout()
-    n_states = 2 * (2 + (1 if layout.has_roll else 0) + layout.n)
+    n_states = 2 * (len(layout.dofs) + layout.n) + 8 * len(config.comfort.seats)
     return (scenario.segments * scenario.order + 1) * n_states
 
 

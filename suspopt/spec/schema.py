@@ -25,14 +25,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from suspopt.models.design import design_kind
-from suspopt.models.layout import VehicleLayout, full_car, half_car
+from suspopt.models.layout import VehicleLayout, full_car, half_car, quarter_car
+from suspopt.models.metrics import objective_terms as metric_terms
 from suspopt.road import RoadProfile, make_road
 from suspopt.spec.resolve import Scenario
 from suspopt.spec.resolve import scenarios as resolve_scenarios
 from suspopt.spec.values import check as _check
 from suspopt.spec.values import plausible as _plausible
 
-MODELS = ('half_car', 'full_car')
+MODELS = ('quarter_car', 'half_car', 'full_car')
 NORMALIZATIONS = ('reference', 'paper', 'custom')
 AGGREGATES = ('sum', 'max')
 #: how a multibody module's frame is coupled to the chassis (``multibody.mount``)
@@ -87,6 +88,12 @@ class AxleConfig:
     anti_roll_bar: bool = field(
         default=False, metadata={'doc': 'full car: a bar whose rate k_R is designed'}
     )
+    roll_centre_height: float = field(
+        default=0.0,
+        metadata=_plausible(
+            -1.0, 2.0, 'm', 'a roll centre height', doc='kinematic roll centre above ground [m]'
+        ),
+    )
 
 
 @dataclass(frozen=True)
@@ -102,13 +109,17 @@ class VehicleConfig:
     )
     chassis_pitch_inertia: float = field(
         default=2782.0,
-        metadata=_plausible(
-            1.0, 1e7, 'kg m^2', 'a pitch inertia', check='positive', doc='I [kg m^2]'
-        ),
+        metadata=_plausible(0.0, 1e7, 'kg m^2', 'a pitch inertia', doc='I [kg m^2]'),
     )
     chassis_roll_inertia: float = field(
         default=0.0,
         metadata=_plausible(0.0, 1e7, 'kg m^2', 'a roll inertia', doc='full car: I_x [kg m^2]'),
+    )
+    cg_height: float = field(
+        default=0.0,
+        metadata=_plausible(
+            0.0, 5.0, 'm', "a road vehicle's centre of gravity", doc='CG above ground [m]'
+        ),
     )
     front: AxleConfig = field(default_factory=AxleConfig)
     rear: AxleConfig = field(default_factory=lambda: AxleConfig(axle_position=-1.713))
@@ -127,6 +138,8 @@ class VehicleConfig:
         a1, a2 = self.front.axle_position, self.rear.axle_position
         if self.model == 'full_car':
             return full_car(a1, a2, self.front.track, self.rear.track)
+        if self.model == 'quarter_car':
+            return quarter_car()
         return half_car(a1, a2)
 
 
@@ -165,7 +178,13 @@ DESIGN_DEFAULTS = {
 def design_names(vehicle: VehicleConfig, per_corner: bool = False) -> tuple[str, ...]:
     """The design variables of a car: spring rate and damping per axle (``k_S1``, ``c_S2``)
     or per corner (``k_S1L`` ...), then each anti-roll bar's rate (``k_R1``)."""
-    groups = vehicle.layout().labels if per_corner and vehicle.model == 'full_car' else ('1', '2')
+    groups = (
+        vehicle.layout().labels
+        if per_corner and vehicle.model == 'full_car'
+        else ('1',)
+        if vehicle.model == 'quarter_car'
+        else ('1', '2')
+    )
     names = [f'k_S{g}' for g in groups] + [f'c_S{g}' for g in groups]
     if vehicle.model == 'full_car':
         names += [f'k_R{i + 1}' for i, ax in enumerate(vehicle.axles) if ax.anti_roll_bar]
@@ -200,25 +219,22 @@ class DesignConfig:
 
 
 # ---------------------------------------------------------------------------- objective
-def objective_terms(layout: VehicleLayout) -> tuple[str, ...]:
-    """The objective's integrals (paper eq. 4, extended): chassis ``heave``, ``pitch`` (and
-    ``roll``) accelerations squared, and each wheel's travel squared (``wheel_<corner>``)."""
-    return (
-        ('heave', 'pitch')
-        + (('roll',) if layout.has_roll else ())
-        + tuple(f'wheel_{c}' for c in layout.labels)
-    )
+def objective_terms(layout: VehicleLayout, seats: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The objective's terms (:func:`suspopt.models.metrics.objective_terms`): the
+    chassis accelerations, each wheel's displacement (the paper's eq. 4), each corner's
+    dynamic tyre load and suspension travel, and the comfort at each seat."""
+    return metric_terms(layout, seats)
 
 
 def default_weights(layout: VehicleLayout) -> dict[str, float]:
-    """Half comfort, half road holding: the paper's 0.25 each for the half car; for the
-    full car 1/6 on each chassis term and 1/8 on each wheel."""
-    terms = objective_terms(layout)
-    chassis = [t for t in terms if not t.startswith('wheel_')]
-    return {
-        t: (0.5 / len(chassis) if t in chassis else 0.5 / (len(terms) - len(chassis)))
-        for t in terms
-    }
+    """Half comfort, half road holding over the paper's terms: its 0.25 each for the half
+    car; for the full car 1/6 on each chassis term and 1/8 on each wheel."""
+    chassis = list(layout.dofs)
+    wheels = [f'wheel_{c}' for c in layout.labels]
+    out = dict.fromkeys(objective_terms(layout), 0.0)
+    out.update({t: 0.5 / len(chassis) for t in chassis})
+    out.update({t: 0.5 / len(wheels) for t in wheels})
+    return out
 
 
 @dataclass(frozen=True)
@@ -290,6 +306,85 @@ class MultibodyConfig:
 
 
 @dataclass(frozen=True)
+class Seat:
+    """A seat on the chassis, where the ride comfort is measured (ISO 2631-1 Wk)."""
+
+    name: str = field(default='driver', metadata={'doc': 'its name (the term comfort_<name>)'})
+    x: float = field(
+        default=0.0,
+        metadata=_plausible(-10.0, 10.0, 'm', 'a seat position', doc='ahead of the CG [m]'),
+    )
+    y: float = field(
+        default=0.0,
+        metadata=_plausible(-3.0, 3.0, 'm', 'a seat position', doc='left of the CG [m]'),
+    )
+
+
+@dataclass(frozen=True)
+class ComfortConfig:
+    """The seats where the ISO 2631-1 frequency-weighted acceleration is measured (the
+    terms ``comfort_<seat>``; ``docs/metrics.md``)."""
+
+    seats: tuple[Seat, ...] = ()
+
+
+@dataclass(frozen=True)
+class TravelConstraint:
+    """The suspension travel (wheel relative to the body) within the stops, every node."""
+
+    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    bump: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1.0, 'm', 'a suspension travel', doc='bump travel [m]'),
+    )
+    rebound: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1.0, 'm', 'a suspension travel', doc='rebound travel [m]'),
+    )
+
+
+@dataclass(frozen=True)
+class TyreContactConstraint:
+    """The tyre keeps at least ``margin`` of its static load, every node (no lift-off)."""
+
+    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    margin: float = field(default=0.1, metadata={'doc': 'share of the static load kept'})
+
+
+@dataclass(frozen=True)
+class RollGradientConstraint:
+    """The steady-state roll per g of lateral acceleration within [min, max] deg/g, and the
+    front axle's share of the roll stiffness within ``front_share`` (full car)."""
+
+    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    min: float = field(default=0.0, metadata={'doc': 'lower bound [deg/g] (0: none)'})
+    max: float = field(default=0.0, metadata={'doc': 'upper bound [deg/g] (0: none)'})
+    front_share: tuple[float, ...] = field(
+        default=(), metadata={'doc': '[lower, upper] front share of the roll stiffness'}
+    )
+
+
+@dataclass(frozen=True)
+class RideFrequencyConstraint:
+    """The undamped heave and pitch frequencies of the sprung mass within bands [Hz]."""
+
+    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    heave: tuple[float, ...] = field(default=(), metadata={'doc': '[lower, upper] [Hz]'})
+    pitch: tuple[float, ...] = field(default=(), metadata={'doc': '[lower, upper] [Hz]'})
+
+
+@dataclass(frozen=True)
+class ConstraintsConfig:
+    """Engineering constraints of the design (``docs/metrics.md``): each applies when its
+    table is given."""
+
+    travel: TravelConstraint = field(default_factory=TravelConstraint)
+    tyre_contact: TyreContactConstraint = field(default_factory=TyreContactConstraint)
+    roll_gradient: RollGradientConstraint = field(default_factory=RollGradientConstraint)
+    ride_frequency: RideFrequencyConstraint = field(default_factory=RideFrequencyConstraint)
+
+
+@dataclass(frozen=True)
 class ScenarioConfig:
     """One load case: a road driven at a speed for a horizon on a grid, with a weight."""
 
@@ -300,8 +395,6 @@ class ScenarioConfig:
     road: dict[str, Any] = field(default_factory=dict)
     segments: Any = 0
     order: int = 0
-
-
 
 
 @dataclass(frozen=True)
@@ -318,13 +411,15 @@ class StudyConfig:
     transcription: TranscriptionConfig = field(default_factory=TranscriptionConfig)
     optimizer: OptimizerConfig = field(default_factory=OptimizerConfig)
     multibody: MultibodyConfig = field(default_factory=MultibodyConfig)
+    comfort: ComfortConfig = field(default_factory=ComfortConfig)
+    constraints: ConstraintsConfig = field(default_factory=ConstraintsConfig)
     scenario: tuple[ScenarioConfig, ...] = ()
 
     def layout(self) -> VehicleLayout:
         return self.vehicle.layout()
 
     def terms(self) -> tuple[str, ...]:
-        return objective_terms(self.layout())
+        return objective_terms(self.layout(), tuple(s.name for s in self.comfort.seats))
 
     def design_names(self) -> tuple[str, ...]:
         return self.design.names
@@ -361,9 +456,6 @@ class StudyConfig:
         )
 
 
-
-
-
 def _to_plain(obj: Any) -> Any:
     if isinstance(obj, DesignConfig):
         return {'per_corner': obj.per_corner, **{n: _to_plain(v) for n, v in obj.variables.items()}}
@@ -374,4 +466,3 @@ def _to_plain(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {k: _to_plain(v) for k, v in obj.items()}
     return obj
-

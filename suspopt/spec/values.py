@@ -131,4 +131,3 @@ def parse_dataclass(cls: type, data: Any, key: str, errs: Problems) -> Any:
             errs.add(sub, 'missing value')
             kwargs[name] = math.nan if hints[name] is float else hints[name]()
     return cls(**kwargs)
-

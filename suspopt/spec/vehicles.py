@@ -67,3 +67,29 @@ BMW_E90 = {
     },
     'transcription': {'segments': 'auto'},
 }
+
+#: The default quarter car: the textbook corner of the active-suspension co-design
+#: benchmark (Allison, Guo & Han, "Co-design of an active suspension using simultaneous
+#: dynamic optimization", J. Mech. Des. 136(8), 2014): sprung mass 325 kg, unsprung mass
+#: 65 kg, tyre rate 232.5 kN/m; a passive spring and damper in a box around common
+#: passenger-car values, on an ISO 8608 class C road at 20 m/s.
+QUARTER_CAR = {
+    'vehicle': {
+        'model': 'quarter_car',
+        'chassis_mass': 325.0,
+        'chassis_pitch_inertia': 0.0,
+        'front': {
+            'axle_position': 0.0,
+            'wheel_mass': 65.0,
+            'tyre_stiffness': 232500.0,
+            'mechanism': 'double_wishbone',
+        },
+    },
+    'maneuver': {'speed': 20.0, 'horizon': 5.0},
+    'road': {'profile': 'iso8608', 'road_class': 'C', 'seed': 1},
+    'design': {
+        'k_S1': {'initial': 20000.0, 'lower': 5000.0, 'upper': 60000.0},
+        'c_S1': {'initial': 1500.0, 'lower': 300.0, 'upper': 6000.0},
+    },
+    'transcription': {'segments': 'auto'},
+}

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.models.assembly import VehicleAssembly, VehicleSpec, assemble
+from suspopt.models.metrics import static_loads
 from suspopt.multibody.suspension import SuspensionModule
 from suspopt.road import road_tracks
 from suspopt.spec.resolve import Scenario
@@ -37,6 +38,7 @@ def vehicle_spec(
         tuple(p[2] for p in pairs),
         tuple(axles[p[0]].track for p in pairs),
     )
+    wheel_mass = np.array([axles[c.axle].wheel_mass for c in lay.corners])
     corner_modules: tuple = ()
     if fidelity == 'mixed':
         modules = modules or multibody_modules(config)
@@ -46,7 +48,7 @@ def vehicle_spec(
         M=v.chassis_mass,
         I=v.chassis_pitch_inertia,
         I_x=v.chassis_roll_inertia,
-        m=np.array([axles[c.axle].wheel_mass for c in lay.corners]),
+        m=wheel_mass,
         k_T=np.array([axles[c.axle].tyre_stiffness for c in lay.corners]),
         design=config.design_names(),
         bars=bars,
@@ -56,6 +58,8 @@ def vehicle_spec(
         fd_form=config.multibody.fd_form,
         fd_step=config.multibody.fd_step,
         mount=config.multibody.mount,
+        static_load=static_loads(lay, v.chassis_mass, wheel_mass),
+        seats=tuple((s.name, s.x, s.y) for s in config.comfort.seats),
     )
 
 

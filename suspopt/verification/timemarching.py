@@ -181,9 +181,10 @@ def reference_scales(config: StudyConfig) -> Scales:
     model at the initial design by accurate time marching (SPEC §5)."""
     out = []
     terms = config.terms()
-    for i, sc in enumerate(config.scenarios()):
+    weights = config.objective.weights
+    for sc in config.scenarios():
         J = simulate(config, 'low', scenario=sc, t_eval=np.array([0.0, sc.horizon])).J
-        zero = [t for t, j in zip(terms, J) if not j > 0.0]
+        zero = [t for t, j in zip(terms, J) if not j > 0.0 and weights.get(t, 0.0) > 0.0]
         if zero:
             where = f'scenario {sc.name!r}: ' if config.scenario else ''
             raise ConfigError(
@@ -191,5 +192,5 @@ def reference_scales(config: StudyConfig) -> Scales:
                 f'impossible: the road does not excite {", ".join(zero)} at '
                 "the initial design; use normalization = 'custom' with scales"
             )
-        out.append(dict(zip(terms, (float(x) for x in J))))
+        out.append({t: float(x) if x > 0.0 else 1.0 for t, x in zip(terms, J)})
     return tuple(out)

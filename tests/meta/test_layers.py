@@ -16,7 +16,8 @@ PACKAGE = Path(__file__).resolve().parents[2] / 'suspopt'
 #: bottom to top; the packages of one tuple are independent of each other
 LAYERS: tuple[tuple[str, ...], ...] = (
     ('errors',),
-    ('records', 'road', 'multibody', 'driver', 'spectral'),
+    ('records', 'curves'),
+    ('road', 'multibody', 'driver', 'spectral'),
     ('models',),
     ('spec',),
     ('transcription',),

@@ -21,9 +21,13 @@ from suspopt.models.forces import (
     TyreForceComp,
     WheelLoadComp,
 )
+from suspopt.models.metric_components import (
+    SquaredSignalsComp,
+    SuspensionTravelComp,
+    TyreLoadRatioComp,
+)
 from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
 from suspopt.models.objective import (
-    ObjectiveIntegrandComp,
     ObjectiveQuadratureComp,
     ScenarioObjectiveComp,
     WeightedObjectiveComp,
@@ -41,7 +45,20 @@ HALF = dict(a=np.array([1.271, -1.713]), y=np.zeros(2))
 SIDES = {
     'full': dict(side=np.array([1.0, -1.0, 1.0, -1.0]), roll=True, corners=4, **FULL),
     'half': dict(side=np.zeros(2), roll=False, corners=2, **HALF),
+    'quarter': dict(
+        side=np.zeros(1), roll=False, pitch=False, corners=1, a=np.zeros(1), y=np.zeros(1)
+    ),
 }
+#: the integrand signals of a full car with two seats: chassis, wheels, tyres, travel, seats
+SIGNALS = (
+    ('zdd_C', 'm/s**2', 0),
+    ('thdd_C', 'rad/s**2', 0),
+    ('phidd_C', 'rad/s**2', 0),
+    ('z_W', 'm', 4),
+    ('F_T', 'N', 4),
+    ('travel', 'm', 4),
+    ('a_w', 'm/s**2', 2),
+)
 #: inputs drawn positive (masses, rates, scales, times)
 POSITIVE = ('k_S', 'c_S', 'k_R', 'scales', 'time', 'weights')
 
@@ -66,6 +83,13 @@ def _random_problem(comp: om.ExplicitComponent, seed: int = 0) -> om.Problem:
 COMPONENTS = {
     'mount_motion_half': lambda: MountMotionComp(num_nodes=NN, corners=2, **HALF),
     'mount_motion_full': lambda: MountMotionComp(num_nodes=NN, corners=4, roll=True, **FULL),
+    'mount_motion_quarter': lambda: MountMotionComp(
+        num_nodes=NN, corners=1, pitch=False, a=np.zeros(1), y=np.zeros(1)
+    ),
+    'suspension_travel': lambda: SuspensionTravelComp(num_nodes=NN, corners=4),
+    'tyre_load_ratio': lambda: TyreLoadRatioComp(
+        num_nodes=NN, corners=4, static=np.array([4e3, 4e3, 3.5e3, 3.6e3])
+    ),
     'suspension_force': lambda: SuspensionForceComp(num_nodes=NN, corners=4),
     'anti_roll_bar': lambda: AntiRollBarComp(
         num_nodes=NN, corners=4, left=(0, 2), right=(1, 3), track=(1.5, 1.48)
@@ -91,8 +115,12 @@ COMPONENTS = {
         design=('k_S1L', 'k_S1R', 'k_S2L', 'k_S2R', 'c_S1L', 'c_S1R', 'c_S2L', 'c_S2R'),
         labels=('1L', '1R', '2L', '2R'),
     ),
-    'objective_integrand_half': lambda: ObjectiveIntegrandComp(num_nodes=NN, corners=2),
-    'objective_integrand_full': lambda: ObjectiveIntegrandComp(num_nodes=NN, corners=4, roll=True),
+    'objective_integrand_quarter': lambda: SquaredSignalsComp(
+        num_nodes=NN, corners=1, signals=(('zdd_C', 'm/s**2', 0), ('z_W', 'm', 1))
+    ),
+    'objective_integrand_full': lambda: SquaredSignalsComp(
+        num_nodes=NN, corners=4, signals=SIGNALS
+    ),
     'weighted_objective': lambda: WeightedObjectiveComp(terms=7),
     'objective_quadrature': lambda: ObjectiveQuadratureComp(
         weights=radau_quadrature_weights(2, 3, 5.0), terms=4
@@ -110,6 +138,10 @@ COMPONENTS = {
     'chassis_mount_full': lambda: ChassisMountComp(
         num_nodes=NN, width=8, M=14.0, I=24.0, I_x=5.7, forces=('F_R',), **SIDES['full']
     ),
+    'chassis_mount_quarter': lambda: ChassisMountComp(
+        num_nodes=NN, width=8, M=14.0, **SIDES['quarter']
+    ),
+    'mount_response_quarter': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['quarter']),
     'mount_response_half': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['half']),
     'mount_response_full': lambda: MountResponseComp(num_nodes=NN, width=8, **SIDES['full']),
     'road_two_bumps': lambda: RoadInputComp(

@@ -1,4 +1,4 @@
-"""The curve objects of suspopt.models.curves: exact reduction to the linear spring and
+"""The curve objects of suspopt.curves: exact reduction to the linear spring and
 damper, C¹ continuity at the knees, at zero and at stop contact (one-sided differences),
 parameter derivatives against central differences, PCHIP against SciPy's, the static
 deflection, and every bad input with its key in the message."""
@@ -9,9 +9,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import PchipInterpolator
 
-from suspopt.errors import ConfigError
-from suspopt.models import equations as eq
-from suspopt.models.curves import (
+from suspopt.curves import (
     BumpStop,
     DamperCurve,
     DamperTable,
@@ -24,6 +22,8 @@ from suspopt.models.curves import (
     smoothstep_integral,
     static_deflection,
 )
+from suspopt.errors import ConfigError
+from suspopt.models import equations as eq
 
 #: a digressive, asymmetric damper (rebound about 2.3x bump at the same speed)
 DAMPER = DamperCurve(

@@ -8,8 +8,7 @@ import openmdao.api as om
 import pytest
 from openmdao.utils.assert_utils import assert_check_partials
 
-from suspopt.driver.structure import declared_subjacs
-from suspopt.models.curves import (
+from suspopt.curves import (
     BumpStop,
     DamperCurve,
     DamperTable,
@@ -18,6 +17,7 @@ from suspopt.models.curves import (
     SpringDamperUnit,
     SpringTable,
 )
+from suspopt.driver.structure import declared_subjacs
 from suspopt.models.forces import SuspensionForceComp
 from suspopt.models.nonlinear_forces import NonlinearSuspensionForceComp
 

@@ -15,7 +15,7 @@ import pytest
 from mechanisms import raw
 
 from suspopt.errors import ConfigError
-from suspopt.models.curves import DamperCurve, LinearDamper, SpringCurve, SpringDamperUnit
+from suspopt.curves import DamperCurve, LinearDamper, SpringCurve, SpringDamperUnit
 from suspopt.multibody.components import SuspensionDynamicsComp
 from suspopt.multibody.mechanism import mechanism_from_dict
 from suspopt.multibody.solver import PlanarMultibodySolver

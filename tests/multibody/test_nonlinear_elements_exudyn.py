@@ -5,7 +5,7 @@ whose Exudyn model and typed-in numbers this file reuses) with its strut spring-
 made nonlinear: a progressive spring ``k₁ x + k₃ x³``, an asymmetric digressive damper
 given as a table of forces at velocities, a bump stop and a rebound stop (``x`` the
 strut's compression from the reference length, positive in bump; the curves' convention
-of :mod:`suspopt.models.curves`). In suspopt these are the strut element's subtables
+of :mod:`suspopt.curves`). In suspopt these are the strut element's subtables
 ``spring_curve``, ``damper_curve``, ``bump_stop``, ``rebound_stop``; in Exudyn, the
 ``springForceUserFunction`` of ``ObjectConnectorSpringDamper`` (the tension from the
 elongation ``ΔL`` and its rate, ``f = -F(-ΔL, -ΔL̇)``) written here from the same numbers

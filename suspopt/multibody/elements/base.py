@@ -25,7 +25,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from suspopt.errors import ConfigError
-from suspopt.models.curves import SLOTS, SpringDamperUnit
+from suspopt.curves import SLOTS, SpringDamperUnit
 from suspopt.multibody.reading import GROUND
 
 COORDINATES = ('x', 'z', 'phi')
@@ -476,7 +476,7 @@ class ScalarSpringGroup(ForceGroup):
     gradient, ``(ℓ_q q̇)_q q̇`` (so that ``ℓ̈ = ℓ_q q̈ + that``) and the line of action.
 
     An element with curves (``spec.curves``, a
-    :class:`~suspopt.models.curves.SpringDamperUnit`: spring, damper, bump and rebound
+    :class:`~suspopt.curves.SpringDamperUnit`: spring, damper, bump and rebound
     stops) has instead the tension
 
         f = f_p - F(x, v),   x = -(ℓ - ℓ0 + δ),   v = -(ℓ̇ + δ̇)
@@ -486,7 +486,7 @@ class ScalarSpringGroup(ForceGroup):
     ``δ``, ``δ̇`` (run-time parameters ``offset``, ``offset_rate``, default 0) lengthen the
     element, e.g. by a chassis mount's motion along it. Every curve parameter is a
     run-time parameter of its scalar name
-    (:meth:`~suspopt.models.curves.SpringDamperUnit.scalar_parameters`: ``k_S``,
+    (:meth:`~suspopt.curves.SpringDamperUnit.scalar_parameters`: ``k_S``,
     ``c_bump_low``, ``damper_forces_3`` ...). The elements of a group evaluate their
     curves in one call per distinct curve structure."""
 
@@ -663,7 +663,7 @@ def _no_damper(unit: Any, values: dict[str, np.ndarray], idx: np.ndarray) -> boo
 
 def spring_spec_keys() -> dict[str, bool]:
     """TOML keys shared by the spring-damper types (True: required); the curve subtables
-    (:data:`~suspopt.models.curves.SLOTS`) are optional."""
+    (:data:`~suspopt.curves.SLOTS`) are optional."""
     return {
         'name': True,
         'type': True,
@@ -706,7 +706,7 @@ def read_spring_common(rd, data: dict, where: str) -> dict[str, Any]:
 
 
 def read_curves(rd, data: dict, where: str, common: dict[str, Any]) -> SpringDamperUnit | None:
-    """The element's curve subtables as a :class:`~suspopt.models.curves.SpringDamperUnit`
+    """The element's curve subtables as a :class:`~suspopt.curves.SpringDamperUnit`
     (None without any): a spring curve replaces ``stiffness``, a damper curve ``damping``
     (each pair is exclusive); without them the unit's spring and damper are the linear
     ones of ``stiffness`` and ``damping``. The file gives no travel, so a polynomial spring

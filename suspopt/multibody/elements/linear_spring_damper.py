@@ -21,7 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.models.curves import SpringDamperUnit
+from suspopt.curves import SpringDamperUnit
 from suspopt.multibody.elements.base import (
     AxisProjection,
     ScalarSpringGroup,

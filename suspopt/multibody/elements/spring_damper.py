@@ -16,7 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspopt.models.curves import SpringDamperUnit
+from suspopt.curves import SpringDamperUnit
 from suspopt.multibody.elements.base import (
     ScalarSpringGroup,
     cross,
