@@ -136,6 +136,8 @@ class SuspensionModule:
         if mount not in MOUNTS:
             raise ValueError(f'mount must be one of {MOUNTS}, got {mount!r}')
         self.mount = mount
+        #: the mechanism as given (ground-mounted form; :attr:`mechanism` is the one solved)
+        self.base_mechanism = mechanism
         fixed_names = {b.name for b in mechanism.bodies if b.fixed}
         self.n_joints = len(mechanism.joints)  # the mechanism's own (reported) joints
         if mount == 'chassis':
