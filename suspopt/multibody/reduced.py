@@ -41,7 +41,7 @@ import dataclasses
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from types import ModuleType
+from types import SimpleNamespace
 
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
@@ -50,6 +50,26 @@ from suspopt.errors import MultibodyError
 from suspopt.multibody.elements import is_spring
 from suspopt.multibody.elements.base import cross
 from suspopt.multibody.mechanism import Mechanism
+from suspopt.multibody.reduced_terms import (
+    P_DTX,
+    P_DTZ,
+    P_FREE,
+    P_GX,
+    P_GZ,
+    P_MALL,
+    P_MMOV,
+    P_PRELOAD,
+    Q0,
+    V_BODY,
+    V_DBODY,
+    V_DWHEEL,
+    V_WHEEL,
+    VECTORS,
+    chassis_terms,
+    compiled_kernels,
+    ground_terms,
+    layout,
+)
 from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver, freeze
 from suspopt.multibody.suspension import RESPONSE, ModuleKinematics, SuspensionModule
 
@@ -57,128 +77,9 @@ __all__ = [
     'ReducedState',
     'ReducedSuspensionModule',
     'TravelTable',
-    'chassis_terms',
-    'ground_terms',
-    'layout',
     'reducible',
     'reduced_modules',
 ]
-
-#: the tabulated functions of the wheel travel s (the linkage's frame at its reference
-#: pose), in this order: 2-vectors (x, z) relative to the mount point P_0, the wheel marker
-#: ρ_w, ρ_w'; the CG of the body of the independent coordinate ρ_b, ρ_b', ρ_b''; the tyre's
-#: contact point ρ_c, ρ_c'; the spring's line of action at its linkage end; the first
-#: moment p = Σ m ρ of the moving bodies and p', p''; that of the fixed bodies (a
-#: constant); then scalars: the spring's length ℓ, ℓ'; the generalized mass
-#: m = Σ m |ρ'|² + I φ'² and h = Σ m ρ' · ρ'' + I φ' φ''; the polar inertia about P_0,
-#: J0 = Σ m |ρ|² + I; Hc = Σ m ρ × ρ' + I φ', Hq = Σ m ρ × ρ'' + I φ'', Hd = Σ m ρ · ρ'
-#: (sums over the moving bodies); then the body coordinates q and q' (n each)
-VECTORS = (
-    'wheel',
-    'dwheel',
-    'body',
-    'dbody',
-    'ddbody',
-    'contact',
-    'dcontact',
-    'direction',
-    'p',
-    'dp',
-    'ddp',
-    'pfixed',
-)
-SCALARS = ('length', 'dlength', 'mass', 'h', 'J0', 'Hc', 'Hq', 'Hd')
-(
-    V_WHEEL,
-    V_DWHEEL,
-    V_BODY,
-    V_DBODY,
-    V_DDBODY,
-    V_CONTACT,
-    V_DCONTACT,
-    V_DIRECTION,
-    V_P,
-    V_DP,
-    V_DDP,
-    V_PFIXED,
-) = range(len(VECTORS))
-_S0 = 2 * len(VECTORS)
-S_LENGTH, S_DLENGTH, S_MASS, S_H, S_J0, S_HC, S_HQ, S_HD = range(_S0, _S0 + len(SCALARS))
-#: first column of q (then q')
-Q0 = _S0 + len(SCALARS)
-
-
-def layout(n: int) -> dict[str, slice]:
-    """The columns of each tabulated function for a linkage of ``n`` body coordinates."""
-    cols = {name: slice(2 * i, 2 * i + 2) for i, name in enumerate(VECTORS)}
-    cols.update({name: slice(_S0 + i, _S0 + i + 1) for i, name in enumerate(SCALARS)})
-    cols['q'], cols['dq'] = slice(Q0, Q0 + n), slice(Q0 + n, Q0 + 2 * n)
-    return cols
-
-
-#: the constants the formulas take (``par``): the spring's free length and file preload,
-#: the tyre load's direction, gravity, the moving bodies' and all bodies' mass
-P_FREE, P_PRELOAD, P_DTX, P_DTZ, P_GX, P_GZ, P_MMOV, P_MALL = range(8)
-
-
-def ground_terms(y, sd, z_M, v_M, k, c, F_T, par):
-    """Ground mount: wheel-travel acceleration and ``F_S`` from the table's functions
-    ``y`` (indexable by column; a column array (N,) each, or one state's scalars) and the
-    query: Lagrange's equation in s (module docstring) with the spring's tension
-    ``f = k (ℓ - ℓ0) + c ℓ' ṡ + e_z (k z_M + c v_M)`` (eq. 12 generalized)."""
-    dell = y[S_DLENGTH]
-    e_z = y[2 * V_DIRECTION + 1]
-    f = k * (y[S_LENGTH] - par[P_FREE]) + c * (dell * sd) + e_z * (k * z_M + c * v_M)
-    Qs = (
-        F_T * (par[P_DTX] * y[2 * V_DCONTACT] + par[P_DTZ] * y[2 * V_DCONTACT + 1])
-        - f * dell
-        + (par[P_GX] * y[2 * V_DP] + par[P_GZ] * y[2 * V_DP + 1])
-    )
-    return (Qs - y[S_H] * (sd * sd)) / y[S_MASS], -f * e_z
-
-
-def chassis_terms(y, X, Z, sd, w, k, c, F_T, par):
-    """Chassis mount: the response (module docstring) from the table's functions ``y``,
-    the global x and z of its 2-vectors turned with the frame, ``X``, ``Z`` (indexable by
-    vector), the travel rate ``sd``, the frame's angular velocity ``w`` and the query:
-    ``(zdd_W, F_z, M_P, F_x)`` at zero mount acceleration, per unit vertical acceleration
-    of P, per unit angular acceleration of the frame (12 values), then ``F_S``."""
-    dell = y[S_DLENGTH]
-    f = k * (y[S_LENGTH] - par[P_FREE]) + c * (dell * sd) + par[P_PRELOAD]
-    dTx, dTz, gx, gz = par[P_DTX], par[P_DTZ], par[P_GX], par[P_GZ]
-    Xdp, Zdp = X[V_DP], Z[V_DP]
-    # the tyre's and gravity's generalized forces on s: d · (A ρ'), g · (A p')
-    Qs = F_T * (dTx * X[V_DCONTACT] + dTz * Z[V_DCONTACT]) - f * dell + (gx * Xdp + gz * Zdp)
-    m, Hc, Hd = y[S_MASS], y[S_HC], y[S_HD]
-    sd2, w2, ws = sd * sd, w * w, w * sd
-    sdd0 = (Qs - y[S_H] * sd2 + Hd * w2) / m
-    sdd_a = -Zdp / m
-    sdd_r = -Hc / m
-    # the independent body's height acceleration
-    Zdb = Z[V_DBODY]
-    zdd0 = -w2 * Z[V_BODY] + 2.0 * ws * X[V_DBODY] + sd2 * Z[V_DDBODY] + sdd0 * Zdb
-    zdd_a = 1.0 + Zdb * sdd_a
-    zdd_r = X[V_BODY] + Zdb * sdd_r
-    # force on the frame: F_T d_T + Σ m g - Σ m r̈ over the moving bodies
-    Xp, Zp = X[V_P], Z[V_P]
-    mall = par[P_MALL]
-    Fx0 = F_T * dTx + mall * gx - (-w2 * Xp - 2.0 * ws * Zdp + sd2 * X[V_DDP] + sdd0 * Xdp)
-    Fz0 = F_T * dTz + mall * gz - (-w2 * Zp + 2.0 * ws * Xdp + sd2 * Z[V_DDP] + sdd0 * Zdp)
-    Fx_a = -Xdp * sdd_a
-    Fz_a = -par[P_MMOV] - Zdp * sdd_a
-    Fx_r = Zp - Xdp * sdd_r
-    Fz_r = -Xp - Zdp * sdd_r
-    # moment about P: of the tyre force and gravity, less the rate of angular momentum
-    Xpa, Zpa = Xp + X[V_PFIXED], Zp + Z[V_PFIXED]
-    M0 = (
-        F_T * (X[V_CONTACT] * dTz - Z[V_CONTACT] * dTx)
-        + (Xpa * gz - Zpa * gx)
-        - (2.0 * ws * Hd + sd2 * y[S_HQ] + sdd0 * Hc)
-    )
-    M_a = -Xp - Hc * sdd_a
-    M_r = -y[S_J0] - Hc * sdd_r
-    F_S = -f * Z[V_DIRECTION]
-    return (zdd0, Fz0, M0, Fx0, zdd_a, Fz_a, M_a, Fx_a, zdd_r, Fz_r, M_r, Fx_r, F_S)
 
 
 @dataclass(frozen=True)
@@ -313,7 +214,7 @@ class ReducedSuspensionModule:
 
     ``tolerance``: the series' largest interpolation error relative to each quantity's
     scale (checked when built, and again by :meth:`verify_table`). ``compiled``: evaluate
-    by the Numba kernels of :mod:`~suspopt.multibody.reduced_kernels` (Numba needed; they
+    by the Numba kernels of :mod:`~suspopt.multibody.reduced_terms` (Numba needed; they
     compile at the first query and are cached on disk) instead of NumPy on the batch."""
 
     def __init__(self, full: SuspensionModule, tolerance: float = 1e-12, compiled: bool = False):
@@ -365,7 +266,7 @@ class ReducedSuspensionModule:
         grid = np.linspace(lo, hi, 201)
         q = self.table(grid, self.columns['q'])
         self.table_residual = float(np.max(np.abs(s.constraints(q))))
-        self._kernels: ModuleType | None = _kernels() if compiled else None
+        self._kernels: SimpleNamespace | None = compiled_kernels() if compiled else None
         self.compiled = compiled
 
     @classmethod
@@ -761,13 +662,6 @@ def _vector(a, N: int | None = None) -> np.ndarray:
     if a.ndim != 1 or (N is not None and a.shape[0] != N):
         a = np.ascontiguousarray(np.broadcast_to(a, (a.size if N is None else N,)))
     return a
-
-
-def _kernels() -> ModuleType:
-    """The compiled kernels' module (an ImportError without Numba)."""
-    from suspopt.multibody import reduced_kernels
-
-    return reduced_kernels
 
 
 def reduced_modules(
