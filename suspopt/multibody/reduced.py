@@ -32,13 +32,17 @@ on a separate check grid. :class:`ReducedSuspensionModule` evaluates them (one s
 matrix product per call) and answers the queries the time marching makes
 (:meth:`~ReducedSuspensionModule.kinematics`, :meth:`~ReducedSuspensionModule.dynamics`,
 :meth:`~ReducedSuspensionModule.mount_response`); states outside the table (wheel travel
-outside the travel range) are answered by the full module.
+outside the travel range) are answered by the full module. Nothing of the physics is
+approximated: the reduced model differs from the augmented solve by the series'
+interpolation error only. A linkage's table is made once per process (by the value of
+the mechanism, its roles and travel range) and shared by its modules.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import SimpleNamespace
@@ -75,6 +79,7 @@ from suspopt.multibody.suspension import RESPONSE, ModuleKinematics, SuspensionM
 
 __all__ = [
     'ReducedState',
+    'clear_tables',
     'ReducedSuspensionModule',
     'TravelTable',
     'reducible',
@@ -229,8 +234,13 @@ class ReducedSuspensionModule:
         self.tolerance = tolerance
         self.time_s = 0.0  # wall time spent inside this module (benchmarks)
         self.fallbacks = 0  # states answered by the full module
+        # a table of the same linkage made before (by value: mechanism, roles, travel)
+        key = (mech, tuple(sorted(mech.roles.items())), mech.travel, tolerance)
+        made = _MADE.get(key)
         # the ground-mounted linkage, analysed to the rounding floor
-        self._solver = s = PlanarMultibodySolver(mech, newton_tol=4e-15)
+        self._solver = s = (
+            PlanarMultibodySolver(mech, newton_tol=4e-15) if made is None else made[0]
+        )
         self.n = s.n
         roles = mech.roles
         #: the mount point P_0: the wheel marker's reference position (as the full module's)
@@ -260,12 +270,19 @@ class ReducedSuspensionModule:
         #: height of the independent body's CG above P_0 at the reference pose
         self._rise0 = float(s.q0[s.ind[0]] - self.mount_point[1])
         self.columns = layout(s.n)
-        lo, hi = mech.travel  # type: ignore[misc]
-        self.table = TravelTable.fit(self._exact, lo, hi, self.columns, tolerance)
-        # the largest constraint violation of the tabulated positions (check grid)
-        grid = np.linspace(lo, hi, 201)
-        q = self.table(grid, self.columns['q'])
-        self.table_residual = float(np.max(np.abs(s.constraints(q))))
+        if made is None:
+            lo, hi = mech.travel  # type: ignore[misc]
+            table = TravelTable.fit(self._exact, lo, hi, self.columns, tolerance)
+            # the largest constraint violation of the tabulated positions (check grid)
+            q = table(np.linspace(lo, hi, 201), self.columns['q'])
+            made = (s, table, float(np.max(np.abs(s.constraints(q)))))
+            _MADE[key] = made
+            while len(_MADE) > _MADE_SIZE:
+                _MADE.popitem(last=False)
+        self.table: TravelTable = made[1]
+        #: the largest constraint violation of the tabulated positions (found on the
+        #: fit's check grid)
+        self.table_residual: float = made[2]
         self._kernels: SimpleNamespace | None = compiled_kernels() if compiled else None
         self.compiled = compiled
 
@@ -654,6 +671,10 @@ class ReducedSuspensionModule:
 
 
 _NO_ACC = np.zeros((0, 2))
+#: tables made, by the value of what they depend on: (the ground-mounted mechanism, its
+#: roles, its travel range, the tolerance) -> (its solver, the table, the table's residual)
+_MADE: OrderedDict[tuple, tuple[PlanarMultibodySolver, TravelTable, float]] = OrderedDict()
+_MADE_SIZE = 16
 
 
 def _vector(a, N: int | None = None) -> np.ndarray:
@@ -662,6 +683,11 @@ def _vector(a, N: int | None = None) -> np.ndarray:
     if a.ndim != 1 or (N is not None and a.shape[0] != N):
         a = np.ascontiguousarray(np.broadcast_to(a, (a.size if N is None else N,)))
     return a
+
+
+def clear_tables() -> None:
+    """Forget the tables made so far (the next module of each linkage makes its own)."""
+    _MADE.clear()
 
 
 def reduced_modules(

@@ -233,6 +233,21 @@ def test_linkages_without_a_reduced_model_keep_the_full_module():
     assert isinstance(out['dw'], ReducedSuspensionModule) and out['dw'].full is shipped
 
 
+def test_a_linkage_table_is_made_once_and_shared_by_value():
+    """Modules of equal mechanisms (read twice, either mount) share one table; another
+    travel range is another table."""
+    a = ReducedSuspensionModule(SuspensionModule('sla_double_wishbone'))
+    b = ReducedSuspensionModule(SuspensionModule('sla_double_wishbone', mount='chassis'))
+    assert b.table is a.table
+    with mechanism_path('sla_double_wishbone').open('rb') as fh:
+        data = tomllib.load(fh)
+    data['suspension']['travel'] = [-0.08, 0.09]
+    mech = mechanism_from_dict(data, source='shorter travel', suspension=True)
+    c = ReducedSuspensionModule(SuspensionModule(mech))
+    assert c.table is not a.table and (c.table.lo, c.table.hi) == (-0.08, 0.09)
+    c.verify_table()
+
+
 def test_a_full_modules_state_is_refused():
     full, red = modules('double_wishbone', 'ground')
     kin = full.kinematics(np.zeros(2), np.zeros(2))
