@@ -18,12 +18,11 @@ NumPy, and compiled by Numba if it is installed.
   wall time and right-hand-side calls; the compiled modules' first call (Numba's cache
   load or compilation) is made before and reported apart;
 * agreement: the objective terms J of the full and the reduced time marching at
-  ``--agreement-rtol`` (atol 1e-3 of it), where the integration error is below 1e-8:
+  ``--agreement-rtol`` (atol 1e-3 of it), where the integration error is well below 1e-8:
   their largest relative difference must be at most 1e-8 (the script fails otherwise).
   At looser tolerances the two differ by the integrator's own error (two right-hand
-  sides equal to 1e-12 make the adaptive steps part, and the J differ at its level:
-  about 1e-7 on the full car at rtol 1e-8); the difference at the verification
-  tolerance is shown too;
+  sides equal to rounding make the adaptive steps part, and the J differ at that
+  error's level); the difference at the verification tolerance is shown too;
 * one-time costs: building each mechanism's table (once per process: later modules of the
   same linkage take it); importing Numba and the compiled kernels' first call.
 
