@@ -337,7 +337,10 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
             )
             zdd[:, cols] = acc.reshape(nn, len(cols))
             F_S[:, cols] = force.reshape(nn, len(cols))
-            reactions[:, cols, : reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
+            if reac is None:  # a module that does not give the joints' reactions
+                reactions[:, cols] = np.nan
+            else:
+                reactions[:, cols, : reac.shape[1]] = reac.reshape(nn, len(cols), -1, 2)
         return {'zdd_W': zdd, 'F_S': F_S, 'reactions': reactions}
 
 

@@ -59,6 +59,8 @@ from suspopt.multibody.elements.base import (
     rot_apply,
 )
 from suspopt.multibody.mechanism import GROUND, Mechanism
+from suspopt.multibody.npfast import inv as _lapack_inv
+from suspopt.multibody.npfast import solve as _lapack_solve
 
 #: a state where the linkage moves this many times faster than at its reference pose is
 #: a lock (toggle) position: the travel-range check of a suspension refuses it
@@ -69,7 +71,7 @@ TRAVEL_STEPS = 10
 SMALL_BATCH = 16
 #: spacing of the pose table over a suspension's travel range [m of wheel travel]
 POSE_TABLE_SPACING = 1.25e-4
-#: read-only constraint Jacobians whose partitioning is kept (PlanarMultibodySolver._partition):
+#: read-only constraint Jacobians whose partitioning is kept (PlanarMultibodySolver.partition):
 #: the poses one finite-difference Jacobian visits (the base and one per position input:
 #: wheel travel, and a chassis mount's height and rotation)
 KEPT_POSES = 4
@@ -77,7 +79,16 @@ KEPT_POSES = 4
 Motion = Mapping[str, PrescribedMotion]
 Params = Mapping[str, Mapping[str, ArrayLike]]
 
-__all__ = ['MultibodyState', 'PlanarMultibodySolver', 'SpringState', 'rotation']
+__all__ = [
+    'MultibodyState',
+    'PlanarMultibodySolver',
+    'PositionAnalysis',
+    'SpringState',
+    'ValueCache',
+    'freeze',
+    'frozen',
+    'rotation',
+]
 
 
 def rotation(phi: np.ndarray) -> np.ndarray:
@@ -95,6 +106,19 @@ class MultibodyState:
     qdd: np.ndarray | None = None
     lam: np.ndarray | None = None
     Cq: np.ndarray | None = None  # constraint Jacobian at q, when already computed
+
+
+@dataclass
+class PositionAnalysis:
+    """A position analysis of N states (:meth:`PlanarMultibodySolver.analyse_positions`):
+    the coordinates ``q`` (N, n), the constraint Jacobian there ``Cq`` (N, m, n), each
+    state's largest constraint violation ``residual`` (N,) and the coincidence joints'
+    pool (N, width) or None (see :class:`~suspopt.multibody.elements.base.CoincidenceSet`)."""
+
+    q: np.ndarray
+    Cq: np.ndarray
+    residual: np.ndarray
+    pool: np.ndarray | None
 
 
 @dataclass
@@ -140,11 +164,8 @@ class PlanarMultibodySolver:
         self.mass_diag = np.array([[b.mass, b.mass, b.inertia] for b in bodies]).ravel()
         self.M = np.diag(self.mass_diag)
         self._inv_mass = 1.0 / self.mass_diag
-        #: (C_q, (C_q,dep⁻¹, the tangent)) of the last read-only C_q's, newest first
-        #: (:meth:`_partition`), and (q, each joint group's Jacobian blocks) of the last
-        #: read-only q's (:meth:`_joint_jacobians`); see :func:`_keep`
-        self._kept_partition: list[tuple] = []
-        self._kept_joint_jacobians: list[tuple] = []
+        #: the partitioning of the last read-only C_q's, by value (:meth:`partition`)
+        self.partitions = ValueCache()
         q0e = np.concatenate([self.q0.reshape(nb, 3), np.zeros((1, 3))])
 
         # markers (on bodies or on the ground)
@@ -244,7 +265,7 @@ class PlanarMultibodySolver:
         }
         for g in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
             g.all_zero = not any(np.any(v) for v in g.defaults.values())
-            g.given = frozenset()  # parameters given at run time (see _force_values)
+            g.given = frozenset()  # parameters given at run time (see force_values)
             scatter = np.zeros((g.bodies.size, 3, nb + 1, 3))
             scatter[np.arange(g.bodies.size), :, g.bodies.ravel()] = np.eye(3)
             g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, : self.n]
@@ -303,12 +324,27 @@ class PlanarMultibodySolver:
             self._travel_poses = self._check_travel(mechanism.travel)
 
     # ---------------------------------------------------------------- run-time values
-    def _ext(self, q: np.ndarray) -> np.ndarray:
-        """(N, nb+1, 3): body coordinates with the ground appended."""
+    def extend(self, q: np.ndarray) -> np.ndarray:
+        """Body coordinates or velocities ``q`` (N, n) with the ground's zeros appended,
+        (N, nb + 1, 3): what the element groups (:attr:`joint_groups`,
+        :attr:`force_groups`) take as ``qe`` and ``qde``."""
         N = q.shape[0]
         qe = np.zeros((N, self.n + 3))
         qe[:, : self.n] = q
         return qe.reshape(N, self.nb + 1, 3)
+
+    _ext = extend
+
+    def force_element(self, name: str) -> tuple[int, int]:
+        """Where the force element (or load) ``name`` is: its group's index in
+        :attr:`force_groups` and its index in that group (ValueError if there is none)."""
+        where = self._force_group.get(name)
+        if where is None:
+            raise ValueError(
+                f'{self.mechanism.name}: no force element {name!r} (force elements: '
+                f'{self.force_names})'
+            )
+        return where
 
     def _drives(self, motion: Motion | None, N: int) -> list[np.ndarray | None]:
         """Per joint group: its run-time drive values (see ``JointGroup.drive``), or None
@@ -341,12 +377,14 @@ class PlanarMultibodySolver:
                 nu[:, g.rows] = g.velocity_term(d)
         return nu
 
-    def _force_values(
+    def force_values(
         self, N: int, loads: np.ndarray | None, params: Params | None, only: int | None = None
     ) -> list[dict[str, np.ndarray] | None]:
-        """Per force group: each parameter's values (N, ne), the file's unless given; None
-        for a group whose values are all zero (it applies no force). ``only``: that group's
-        entry alone (the others None)."""
+        """The run-time values of N states per force group (order :attr:`force_groups`):
+        each parameter's values (N, ne), the file's unless given by the load magnitudes
+        ``loads`` (N, n_loads) or ``params`` (see :meth:`generalized_forces`); None for a
+        group whose values are all zero (it applies no force). ``only``: that group's
+        entry alone (the others None). What :meth:`applied_forces` takes."""
         given: dict[int, dict[str, list]] = {}
         for name, vals in (params or {}).items():
             if name not in self._force_group:
@@ -477,10 +515,24 @@ class PlanarMultibodySolver:
         nu = self._nu(self._drives(motion, q.shape[0]), q.shape[0])
         return Cdot if nu is None else Cdot - nu
 
-    def gamma(self, q: np.ndarray, qd: np.ndarray, motion: Motion | None = None) -> np.ndarray:
+    def gamma(
+        self,
+        q: np.ndarray,
+        qd: np.ndarray,
+        motion: Motion | None = None,
+        *,
+        qe: np.ndarray | None = None,
+        qde: np.ndarray | None = None,
+        pool: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Right-hand side of the acceleration constraints ``γ = -(C_q q̇)_q q̇ - C_tt``,
-        (N, m)."""
-        return self._gamma(self._ext(q), self._ext(qd), self._drives(motion, q.shape[0]))
+        (N, m). A caller that has them may pass :meth:`extend` of ``q`` and ``q̇`` and the
+        coincidence joints' pool at ``q`` (:meth:`analyse_positions`): the coincidence
+        joints are then evaluated together, with the same result bit for bit."""
+        drives = self._drives(motion, q.shape[0])
+        if qe is None and qde is None and pool is None:
+            return self._gamma(self._ext(q), self._ext(qd), drives)
+        return self._gamma_all(q, qd, drives, qe, qde, pool)
 
     def _gamma(
         self, qe: np.ndarray, qde: np.ndarray, drives: list[np.ndarray | None]
@@ -535,12 +587,14 @@ class PlanarMultibodySolver:
         magnitudes ``loads`` (N, n_loads; order :attr:`load_names`) and ``params``.
         ``qd`` is needed when a damper has non-zero damping. An element whose parameters
         are all zero contributes nothing and is skipped."""
-        values = self._force_values(q.shape[0], loads, params)
+        values = self.force_values(q.shape[0], loads, params)
         if all(v is None for v in values):
-            return self._forces(q, None, None, values)[0]
-        return self._forces(q, self._ext(q), None if qd is None else self._ext(qd), values)[0]
+            return self.applied_forces(q, None, None, values)[0]
+        return self.applied_forces(q, self._ext(q), None if qd is None else self._ext(qd), values)[
+            0
+        ]
 
-    def _forces(
+    def applied_forces(
         self,
         q: np.ndarray,
         qe: np.ndarray | None,
@@ -548,9 +602,11 @@ class PlanarMultibodySolver:
         values: list[dict[str, np.ndarray] | None],
         geometry: dict | None = None,
     ) -> tuple[np.ndarray, list]:
-        """:meth:`generalized_forces` from the groups' values, and what each group computed
-        on the way (:meth:`ForceGroup.forces`; None for a group without force);
-        ``geometry``: groups' :meth:`ScalarSpringGroup.geometry` at ``qe`` by group."""
+        """:meth:`generalized_forces` ``Q`` (N, n) from the groups' :meth:`force_values`
+        (``qe``, ``qde``: :meth:`extend` of ``q`` and ``q̇``), and what each group computed
+        on the way (:meth:`~suspopt.multibody.elements.base.ForceGroup.forces`: a spring
+        group's ``tension``; None for a group without force); ``geometry``: groups'
+        ``geometry(qe)`` by group index, if the caller has them."""
         N = q.shape[0]
         Q = np.zeros((N, self.n))
         if self._gravity_force is not None:
@@ -584,7 +640,7 @@ class PlanarMultibodySolver:
             )
         qe = self._ext(q)
         qde = None if qd is None else self._ext(qd)
-        values = self._force_values(q.shape[0], None, params, only=gi)[gi]
+        values = self.force_values(q.shape[0], None, params, only=gi)[gi]
         if values is None:  # all zero
             values = {p: np.zeros((q.shape[0], len(grp.names))) for p in grp.parameters}
         geo = grp.geometry(qe)
@@ -641,9 +697,13 @@ class PlanarMultibodySolver:
         Cq: np.ndarray | None = None,
         method: str = 'partitioned',
         motion: Motion | None = None,
+        *,
+        gamma: np.ndarray | None = None,
+        partition: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Solve eq. 11 for ``q̈`` (N, n) and ``λ`` (N, m), batched over N states
-        (``Cq``: the constraint Jacobian at ``q`` if the caller already has it). The
+        (``Cq``: the constraint Jacobian at ``q``, ``gamma``: :meth:`gamma` there and
+        ``partition``: :meth:`partition` of ``Cq``, if the caller already has them). The
         methods give the same solution of the same system, by different eliminations:
 
         ``'partitioned'`` (default): with ``C_q,dep⁻¹`` of the coordinate partitioning,
@@ -651,7 +711,7 @@ class PlanarMultibodySolver:
         the tangent ``T = -C_q,dep⁻¹ C_q,ind``, ``G = [C_q,dep⁻¹ γ; 0]``); ``Vᵀ`` times
         the force rows (``Vᵀ C_qᵀ = 0``) gives ``(Vᵀ M V) q̈_ind = Vᵀ (Q - M G)``, a
         dof × dof system, and their dependent rows ``λ = C_q,dep⁻ᵀ (Q - M q̈)_dep``. One
-        inversion per pose (shared with the velocity analysis, :meth:`_partition`),
+        inversion per pose (shared with the velocity analysis, :meth:`partition`),
         then products only: the finite differences query each pose many times.
         ``'schur'``: ``(C_q M⁻¹ C_qᵀ) λ = C_q M⁻¹ Q - γ``, then ``q̈ = M⁻¹ (Q - C_qᵀ λ)``
         (an m × m factorization per query, M being diagonal).
@@ -659,13 +719,13 @@ class PlanarMultibodySolver:
         self.calls['augmented'] += 1
         if Cq is None:
             Cq = self.constraint_jacobian(q)
-        rhs_c = self.gamma(q, qd, motion)
-        return self._augmented(q, qd, Q, Cq, rhs_c, baumgarte, method, motion)
+        rhs_c = self.gamma(q, qd, motion) if gamma is None else gamma
+        return self._augmented(q, qd, Q, Cq, rhs_c, baumgarte, method, motion, partition)
 
     def _augmented(
         self, q, qd, Q, Cq, rhs_c, baumgarte=None, method='partitioned', motion=None, partition=None
     ):
-        """:meth:`solve_augmented` given ``C_q`` and ``γ`` (and :meth:`_partition` of
+        """:meth:`solve_augmented` given ``C_q`` and ``γ`` (and :meth:`partition` of
         ``C_q``, if the caller has it)."""
         N, n, m = q.shape[0], self.n, self.m
         if baumgarte is not None:
@@ -677,7 +737,7 @@ class PlanarMultibodySolver:
             )
         what = 'augmented system (eq. 11)'
         if method == 'partitioned':
-            Cinv, T = self._partition(Cq) if partition is None else partition
+            Cinv, T = self.partition(Cq) if partition is None else partition
             g = np.einsum('nij,nj->ni', Cinv, rhs_c)
             m_dep, Q_dep = self._mass_dep, Q[:, self.dep]
             f_dep = Q_dep - m_dep * g  # (Q - M G)_dep
@@ -719,15 +779,16 @@ class PlanarMultibodySolver:
         x = _batched_solve(A, b, what)
         return x[:, :n], x[:, n:]
 
-    def _partition(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def partition(self, Cq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``C_q,dep⁻¹`` (N, m, m) and the tangent ``T = ∂q_dep/∂q_ind = -C_q,dep⁻¹ C_q,ind``
-        (N, m, dof) at a pose: the velocity analysis and eq. 11 as products. Kept for the
-        last :data:`KEPT_POSES` read-only ``C_q``'s (remembered poses, which cannot change
-        in place): the finite differences query the same pose again and again and get
-        these bit for bit as computed afresh, one inversion per pose."""
-        known = _kept(self._kept_partition, Cq)
+        (N, m, dof) at a pose (``C_q`` (N, m, n)): the velocity analysis and eq. 11 as
+        products (:meth:`velocities` and :meth:`solve_augmented` take it as
+        ``partition``). One inversion per pose; a read-only ``C_q`` equal to one of the last
+        :data:`KEPT_POSES` read-only ones gets theirs (:attr:`partitions`), bit for bit as
+        computed afresh."""
+        known = self.partitions.get(Cq)
         if known is not None:
-            return known
+            return known  # type: ignore[return-value]
         try:
             Cinv = _lapack_inv(Cq.take(self.dep, 2))
         except np.linalg.LinAlgError:
@@ -739,7 +800,9 @@ class PlanarMultibodySolver:
         C_ind = Cq[:, :, i : i + 1] if self.dof == 1 else Cq.take(self.ind, 2)
         T = -(Cinv @ C_ind)  # (a non-finite C_q: found by the users of T)
         self.calls['factorizations'] += 1
-        return _keep(self._kept_partition, Cq, (Cinv, T))
+        return self.partitions.put(Cq, (Cinv, T))  # type: ignore[return-value]
+
+    _partition = partition
 
     def reactions(
         self, q: np.ndarray, lam: np.ndarray, jacobians: tuple[np.ndarray, ...] | None = None
@@ -748,25 +811,20 @@ class PlanarMultibodySolver:
         :attr:`joint_names`) applies on each of its bodies (:attr:`joint_bodies`; a
         prescribed joint has one): (N, n_joints, 2, 3) = force (x, z) and torque about
         that body's CG (about the origin for the ground), ``-(∂C_k/∂q_b)ᵀ λ_k``
-        (``jacobians``: :meth:`_joint_jacobians` at ``q``, if the caller has them)."""
+        (``jacobians``: :meth:`joint_jacobians` at ``q``, if the caller has them)."""
         out = np.zeros((q.shape[0], len(self.joint_names), 2, 3))
         if jacobians is None:
-            jacobians = self._joint_jacobians(q)
+            jacobians = self.joint_jacobians(q)
         for g, jac in zip(self.joint_groups, jacobians):
             out[:, g.members, : g.n_bodies] = g.reactions(None, lam[:, g.rows], jac)
         return out
 
-    def _joint_jacobians(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Each joint group's Jacobian blocks ``∂C/∂q_b`` at ``q`` (what its reactions
-        take), kept for the last :data:`KEPT_POSES` read-only ``q``'s: the reactions of a
-        remembered pose are products only, bit for bit as computed afresh."""
-        known = _kept(self._kept_joint_jacobians, q)
-        if known is not None:
-            return known
+    def joint_jacobians(self, q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Each joint group's Jacobian blocks ``∂C/∂q_b`` at ``q`` (N, ne, S, k, 3), in the
+        order of :attr:`joint_groups`: what :meth:`reactions` takes as ``jacobians`` (a
+        caller querying one pose again keeps them)."""
         qe = self._ext(q)
-        return _keep(
-            self._kept_joint_jacobians, q, tuple(g.jacobian(qe) for g in self.joint_groups)
-        )
+        return tuple(g.jacobian(qe) for g in self.joint_groups)
 
     def joint_reactions(self, lam: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Force each of the mechanism's joints applies on its first body, global axes,
@@ -830,7 +888,7 @@ class PlanarMultibodySolver:
         m = self.mass_diag.reshape(self.nb, 3)[:, 0]
         V = -np.sum(m * (q3[:, :, 0] * g[0] + q3[:, :, 1] * g[1]), axis=-1)
         qe = self._ext(q)
-        for grp, v in zip(self.force_groups, self._force_values(q.shape[0], None, params)):
+        for grp, v in zip(self.force_groups, self.force_values(q.shape[0], None, params)):
             if v is not None:
                 V = V + np.sum(grp.potential(qe, v), axis=-1)
         return V
@@ -854,12 +912,20 @@ class PlanarMultibodySolver:
     def _analysed_positions(
         self, q_ind: np.ndarray, guess: np.ndarray | None = None, motion: Motion | None = None
     ):
-        """:meth:`positions` and, at the result, ``C_q`` (N, m, n), each state's
-        ``max |C|`` (N,), as :meth:`constraint_jacobian` and :meth:`constraints` give them,
-        and the coincidence joints' pool (see :meth:`_gamma_all`)."""
+        """:meth:`analyse_positions` as a tuple ``(q, C_q, max |C|, pool)``."""
         self.calls['positions'] += 1
         q_ind = np.asarray(q_ind, dtype=float)
         return self._positions(q_ind, guess, self._drives(motion, q_ind.shape[0]), full=True)
+
+    def analyse_positions(
+        self, q_ind: np.ndarray, guess: np.ndarray | None = None, motion: Motion | None = None
+    ) -> PositionAnalysis:
+        """:meth:`positions` and what its last Newton iteration found at the result: the
+        constraint Jacobian (what :meth:`constraint_jacobian` gives), each state's
+        ``max |C|`` (of :meth:`constraints`) and the coincidence joints' pool (what
+        :meth:`gamma` may take)."""
+        q, Cq, residual, pool = self._analysed_positions(q_ind, guess, motion)
+        return PositionAnalysis(q=q, Cq=Cq, residual=residual, pool=pool)
 
     def _positions(
         self,
@@ -975,11 +1041,12 @@ class PlanarMultibodySolver:
         Cq: np.ndarray | None = None,
         max_sensitivity: float | None = None,
         motion: Motion | None = None,
+        partition: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """All velocities (N, n) from the independent ones: ``C_q q̇ = ν``, as
         ``q̇_dep = T q̇_ind + C_q,dep⁻¹ ν`` with the tangent ``T = ∂q_dep/∂q_ind =
-        -C_q,dep⁻¹ C_q,ind`` (:meth:`_partition`: a new rate at a remembered pose is
-        products only).
+        -C_q,dep⁻¹ C_q,ind`` (:meth:`partition` of ``C_q``, computed unless given: a new
+        rate at a known pose is products only).
 
         With ``max_sensitivity``, a state where some dependent coordinate moves more than
         that many times faster per unit of independent motion than at the reference pose
@@ -991,7 +1058,7 @@ class PlanarMultibodySolver:
         if Cq is None:
             Cq = self.constraint_jacobian(q)
         qd[:, self.ind] = qd_ind
-        Cinv, T = self._partition(Cq)
+        Cinv, T = self.partition(Cq) if partition is None else partition
         if max_sensitivity is not None:
             ratio = np.maximum.reduce(np.abs(T).reshape(N, -1), axis=1) / self.sensitivity0
             if np.maximum.reduce(ratio) > max_sensitivity:
@@ -1137,82 +1204,48 @@ class PlanarMultibodySolver:
         ]
 
 
-try:  # the gufuncs behind np.linalg.solve and .inv, without their argument handling (small
-    # systems, where that handling costs as much as the factorization)
-    from numpy.linalg import _umath_linalg
-    from numpy.linalg._linalg import _raise_linalgerror_singular
+class ValueCache:
+    """Results remembered by the value of the array they were computed from: :meth:`get`
+    returns one only for an array equal to its key entry for entry (and in shape and
+    dtype), of which the cache keeps its own copy; the :data:`KEPT_POSES` newest are kept.
 
-    _solve, _inv = _umath_linalg.solve, _umath_linalg.inv
-    try:  # np.linalg.solve's error state, made once
-        from numpy._core._ufunc_config import _extobj_contextvar, _make_extobj
+    Only read-only arrays are remembered (:meth:`put`): those are the ones a caller may
+    query again (the suspension module's remembered poses), whereas writable ones are
+    scratch values (Newton iterates, a simulator's steps) that would cost a copy each for
+    nothing. The answer never depends on the flag: it is the value that is compared, so
+    an array changed in place, or a read-only view whose base changed, is computed
+    afresh."""
 
-        _SOLVE_ERRORS = _make_extobj(
-            call=_raise_linalgerror_singular,
-            invalid='call',
-            over='ignore',
-            divide='ignore',
-            under='ignore',
-        )
+    def __init__(self, size: int = KEPT_POSES):
+        self.size = size
+        self._entries: list[tuple[np.ndarray, tuple[np.ndarray, ...]]] = []
 
-        def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-            token = _extobj_contextvar.set(_SOLVE_ERRORS)
-            try:
-                return _solve(A, b, signature='dd->d')
-            finally:
-                _extobj_contextvar.reset(token)
-
-        def _lapack_inv(A: np.ndarray) -> np.ndarray:
-            token = _extobj_contextvar.set(_SOLVE_ERRORS)
-            try:
-                return _inv(A, signature='d->d')
-            finally:
-                _extobj_contextvar.reset(token)
-    except (ImportError, AttributeError, TypeError):  # pragma: no cover - NumPy < 2
-
-        def _lapack_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-            with np.errstate(
-                call=_raise_linalgerror_singular,
-                invalid='call',
-                over='ignore',
-                divide='ignore',
-                under='ignore',
+    def get(self, key: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        first = (0,) * (key.ndim - 1)  # its first row: most other keys differ there
+        for k, value in self._entries:
+            if (
+                k.shape == key.shape
+                and k.dtype == key.dtype
+                and (key.size == 0 or np.array_equal(k[first], key[first]))
+                and np.array_equal(k, key)
             ):
-                return _solve(A, b, signature='dd->d')
+                return value
+        return None
 
-        def _lapack_inv(A: np.ndarray) -> np.ndarray:
-            with np.errstate(
-                call=_raise_linalgerror_singular,
-                invalid='call',
-                over='ignore',
-                divide='ignore',
-                under='ignore',
-            ):
-                return _inv(A, signature='d->d')
-except (ImportError, AttributeError):  # pragma: no cover - another NumPy layout
-    _lapack_solve, _lapack_inv = np.linalg.solve, np.linalg.inv
+    def put(self, key: np.ndarray, value: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+        """``value``, remembered (its arrays made read-only) if ``key`` is read-only."""
+        if not key.flags.writeable:
+            value = tuple(freeze(a) for a in value)
+            self._entries = [(freeze(key.copy()), value), *self._entries[: self.size - 1]]
+        return value
 
-
-def _kept(memory: list[tuple], key: np.ndarray):
-    """What :func:`_keep` kept for the array ``key`` itself (by identity), or None."""
-    for k, value in memory:
-        if k is key:
-            return value
-    return None
-
-
-def _keep(memory: list[tuple], key: np.ndarray, value: tuple) -> tuple:
-    """``value`` (a tuple of arrays computed from ``key``), kept newest first in
-    ``memory`` (at most :data:`KEPT_POSES`) if ``key`` cannot change (:func:`frozen`), its
-    arrays then read-only too."""
-    if frozen(key):
-        value = tuple(freeze(a) for a in value)
-        memory[:] = [(key, value), *memory[: KEPT_POSES - 1]]
-    return value
+    def clear(self) -> None:
+        self._entries = []
 
 
 def freeze(a: np.ndarray) -> np.ndarray:
-    """Make ``a`` and every array it is a view of read-only (its values are kept, so
-    nothing may change them); ``a``."""
+    """Make ``a`` and every array it is a view of read-only (remembered values, which
+    nothing may change); ``a``."""
     b = a
     while isinstance(b, np.ndarray):
         b.flags.writeable = False
@@ -1221,8 +1254,7 @@ def freeze(a: np.ndarray) -> np.ndarray:
 
 
 def frozen(a: np.ndarray) -> bool:
-    """Whether ``a`` cannot change: read-only, and so is every array it is a view of
-    (what a value kept by the identity of its input needs)."""
+    """Whether ``a`` cannot change: read-only, and so is every array it is a view of."""
     while a is not None:
         if a.flags.writeable:
             return False

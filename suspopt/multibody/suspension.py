@@ -50,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,7 +58,7 @@ from suspopt.errors import ConfigError
 from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
 from suspopt.multibody.elements.base import cross, perp, rot_apply
 from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
-from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver, freeze, frozen
+from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver, freeze
 
 MOUNTS = ('ground', 'chassis')
 #: the entries of a chassis-mounted module's response (:meth:`SuspensionModule.
@@ -67,6 +67,24 @@ RESPONSE = ('zdd_W', 'F_z', 'M_P', 'F_x')
 #: index in :data:`RESPONSE` of the generalized force of each mount coordinate (vertical
 #: motion of P, rotation about P)
 MOUNT_FORCES = (1, 2)
+
+
+@dataclass
+class AnalysedState(MultibodyState):
+    """A state of a :class:`SuspensionModule`'s :meth:`~SuspensionModule.kinematics`, with
+    what the analysis found on the way for the dynamics at it: the partitioning of ``Cq``
+    (``C_q,dep⁻¹`` and the tangent, :meth:`PlanarMultibodySolver.partition`), the
+    coincidence joints' pool, the largest constraint violation ``residual`` and the mount
+    pose the state was analysed at (chassis mount). ``pose_memo`` and ``memo`` are shared
+    with the module's remembered analysis of the same positions (the joint Jacobians)
+    and of the same state (γ of eq. 11): computed at the first query that needs them."""
+
+    partition: tuple[np.ndarray, np.ndarray] | None = None
+    pool: np.ndarray | None = None
+    residual: float | None = None
+    pose: tuple[np.ndarray, ...] | None = None
+    pose_memo: dict = field(default_factory=dict)
+    memo: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -111,14 +129,16 @@ def chassis_mounted(mechanism: Mechanism) -> tuple[Mechanism, str, str]:
 class SuspensionModule:
     """One mechanism's multibody suspension, queried as a black box.
 
-    It remembers its last few analyses: a query at exactly the inputs of one of them
-    returns that analysis instead of repeating it. Under finite differences this is most
-    queries: perturbing the wheel-travel rate, the chassis motion, a force or a setting
-    leaves the positions unchanged, and the dynamics query repeats the kinematics query's
-    state. A position analysis (Newton on ``C(q) = 0``) starts from the solver's pose table
-    (or the reference pose moved along its tangent outside the travel range) unless the
-    caller gives a guess, so every answer is a function of the query alone,
-    bit for bit, whatever was asked before.
+    It remembers its last few analyses, by the values of their inputs: a query at exactly
+    the inputs of one of them returns that analysis instead of repeating it. Under finite
+    differences this is most queries: perturbing the wheel-travel rate, the chassis
+    motion, a force or a setting leaves the positions unchanged, and the dynamics query
+    repeats the kinematics query's state. What the dynamics at a state needs from its
+    analysis (the partitioning, γ, the joint Jacobians) travels with the state
+    (:class:`AnalysedState`). A position analysis (Newton on ``C(q) = 0``) starts from
+    the solver's pose table (or the reference pose moved along its tangent outside the
+    travel range) unless the caller gives a guess, so every answer is a function of the
+    query alone, bit for bit, whatever was asked before.
     """
 
     #: analyses remembered per kind (position; position + velocity)
@@ -136,6 +156,8 @@ class SuspensionModule:
         if mount not in MOUNTS:
             raise ValueError(f'mount must be one of {MOUNTS}, got {mount!r}')
         self.mount = mount
+        #: the mechanism as given (ground-mounted form; :attr:`mechanism` is the one solved)
+        self.base_mechanism = mechanism
         fixed_names = {b.name for b in mechanism.bodies if b.fixed}
         self.n_joints = len(mechanism.joints)  # the mechanism's own (reported) joints
         if mount == 'chassis':
@@ -154,7 +176,7 @@ class SuspensionModule:
                 f'must connect the chassis side to the linkage (ends {ends})'
             )
         self.chassis_end = chassis[0]
-        self._spring_group = s._force_group[self.spring_name]
+        self._spring_group = s.force_element(self.spring_name)
         #: the spring's curves (a SpringDamperUnit), None for the linear spring-damper
         self.unit = getattr(mechanism.force(self.spring_name), 'curves', None)
         #: the spring's run-time settings, per corner: ``k_S``, ``c_S`` (linear), or the
@@ -185,14 +207,10 @@ class SuspensionModule:
             self._arm = s.q0[self._frame][:2] - self.mount_point  # frame CG from P
         self.time_s = 0.0  # wall time spent inside this module (benchmarks)
         self.reused = 0  # queries answered from a remembered analysis
-        self._poses: OrderedDict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = OrderedDict()
-        self._states: OrderedDict[bytes, tuple] = OrderedDict()  # (kinematics, max |C|, pool)
-        #: the last kinematics' (q, mount pose, max |C|): what constraint_residual returns
-        self._last_residual: tuple | None = None
-        #: and its (q, the joints' pool at q) (see PlanarMultibodySolver._gamma_all)
-        self._last_pool: tuple | None = None
-        #: (q, q̇, γ) of the last dynamics() at a read-only (remembered) state
-        self._last_gamma: tuple | None = None
+        #: remembered position analyses (by wheel travel and mount pose) and states (by
+        #: all the kinematics' inputs), newest last
+        self._poses: OrderedDict[bytes, tuple] = OrderedDict()
+        self._states: OrderedDict[bytes, AnalysedState] = OrderedDict()
 
     @staticmethod
     def _remember(memory: OrderedDict, key: bytes, value, size: int) -> None:
@@ -202,7 +220,8 @@ class SuspensionModule:
 
     def _pose(self, z_W: np.ndarray, guess: np.ndarray | None, mount=None, motion=None):
         """Position analysis at wheel travels ``z_W`` (and mount poses): (q, C_q, the wheel
-        marker's vertical displacement (N,), its arm ``A u`` (N, 2), ``max |C|`` (N,))."""
+        marker's vertical displacement (N,), its arm's x (N,), ``max |C|`` (N,), the
+        coincidence joints' pool, the partitioning of C_q, a memo for the pose)."""
         key = z_W.tobytes()
         if mount is not None:
             key += mount[0].tobytes() + mount[2].tobytes()
@@ -211,7 +230,8 @@ class SuspensionModule:
             self.reused += 1
             return pose
         s = self.solver
-        q, Cq, res, pool = s._analysed_positions(z_W[:, None] + self.ind0, guess, motion)
+        pa = s.analyse_positions(z_W[:, None] + self.ind0, guess, motion)
+        q, Cq, res, pool = pa.q, pa.Cq, pa.residual, pa.pool
         N = q.shape[0]
         if self._wheel_coords is None:  # a wheel marker on the ground
             q_W, arm_x = np.zeros(N), np.zeros(N)
@@ -221,10 +241,10 @@ class SuspensionModule:
             c, sn = np.cos(q[:, iphi]), np.sin(q[:, iphi])
             arm_x = c * ux + sn * px
             q_W = (q[:, iz] + (c * uz + sn * pz)) - self.marker_ref[self.wheel, 1]
-        pose = (q, Cq, q_W, arm_x, res, pool)
-        for a in pose:
+        for a in (q, Cq, q_W, arm_x, res, pool):
             if a is not None:
                 freeze(a)
+        pose = (q, Cq, q_W, arm_x, res, pool, s.partition(Cq), {})
         self._remember(self._poses, key, pose, self.memory)
         return pose
 
@@ -260,13 +280,17 @@ class SuspensionModule:
             known = self._states.get(key)
             if known is not None:
                 self.reused += 1
-                kin, residual, pool = known
             else:
                 s = self.solver
                 motion = None if pose is None else self.mount_motion(pose)
-                q, Cq, q_W, arm_x, res, pool = self._pose(z_W, guess, pose, motion)
+                q, Cq, q_W, arm_x, res, pool, part, pose_memo = self._pose(z_W, guess, pose, motion)
                 qd = s.velocities(
-                    q, v_W[:, None], Cq, max_sensitivity=self.max_sensitivity, motion=motion
+                    q,
+                    v_W[:, None],
+                    Cq,
+                    max_sensitivity=self.max_sensitivity,
+                    motion=motion,
+                    partition=part,
                 )
                 freeze(qd)
                 if self._wheel_coords is None:
@@ -274,22 +298,27 @@ class SuspensionModule:
                 else:  # (r + B u φ)_z of the wheel marker
                     iz, iphi = self._wheel_coords
                     qd_W = qd[:, iz] + arm_x * qd[:, iphi]
-                kin = ModuleKinematics(
-                    q_W=q_W, qd_W=qd_W, state=MultibodyState(q=q, qd=qd, Cq=Cq), pose=pose
+                memo = {'q_W': q_W, 'qd_W': freeze(qd_W)}
+                known = AnalysedState(
+                    q=q,
+                    qd=qd,
+                    Cq=Cq,
+                    partition=part,
+                    pool=pool,
+                    residual=float(np.maximum.reduce(res, initial=0.0)),
+                    pose=pose,
+                    pose_memo=pose_memo,
+                    memo=memo,
                 )
-                residual = float(np.maximum.reduce(res, initial=0.0))
-                self._remember(self._states, key, (kin, residual, pool), self.memory)
-            self._last_residual = (kin.state.q, kin.pose, residual)
-            self._last_pool = (kin.state.q, pool)
+                self._remember(self._states, key, known, self.memory)
         finally:
             self.time_s += time.perf_counter() - t0
         # a fresh state object: dynamics() attaches accelerations and multipliers to it
-        st = kin.state
         return ModuleKinematics(
-            q_W=kin.q_W,
-            qd_W=kin.qd_W,
-            state=MultibodyState(q=st.q, qd=st.qd, Cq=st.Cq),
-            pose=kin.pose,
+            q_W=known.memo['q_W'],
+            qd_W=known.memo['qd_W'],
+            state=dataclasses.replace(known),
+            pose=known.pose,
         )
 
     def mount_motion(
@@ -367,7 +396,7 @@ class SuspensionModule:
     def axis_vertical(self, state: MultibodyState) -> np.ndarray:
         """``e_z``: vertical component of the unit vector from the spring's linkage end to
         its chassis end, (N,)."""
-        return self._spring_directions(self.solver._ext(state.q))[:, 1 - self.chassis_end, 1]
+        return self._spring_directions(self.solver.extend(state.q))[:, 1 - self.chassis_end, 1]
 
     def _spring_directions(self, qe: np.ndarray, geometry=None) -> np.ndarray:
         """The spring's line of action at both ends (N, 2, 2), see :meth:`spring`."""
@@ -376,7 +405,7 @@ class SuspensionModule:
 
     def _spring_force(self, qe, qde, values, parts) -> np.ndarray:
         """The spring's tension (N,) from the force groups' values and what their
-        generalized forces computed on the way (:meth:`PlanarMultibodySolver._forces`)."""
+        generalized forces computed on the way (:meth:`PlanarMultibodySolver.applied_forces`)."""
         gi, k = self._spring_group
         tension = parts[gi]
         if tension is None:
@@ -410,7 +439,7 @@ class SuspensionModule:
         try:
             q, qd = state.q, state.qd
             N = q.shape[0]
-            qe, qde = s._ext(q), s._ext(qd)
+            qe, qde = s.extend(q), s.extend(qd)
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
             gi = self._spring_group[0]
@@ -426,32 +455,26 @@ class SuspensionModule:
                 }
             else:
                 params = {self.spring_name: self._spring_values(e_z, z_M, v_M, k_S, c_S, settings)}
-            values = s._force_values(N, loads, params)
-            Q, parts = s._forces(q, qe, qde, values, geo)
-            # solve_augmented(q, qd, Q, Cq=state.Cq)
-            s.calls['augmented'] += 1
-            Cq = s.constraint_jacobian(q) if state.Cq is None else state.Cq
-            state.qdd, state.lam = s._augmented(q, qd, Q, Cq, self._gamma(q, qd, qe, qde))
+            values = s.force_values(N, loads, params)
+            Q, parts = s.applied_forces(q, qe, qde, values, geo)
+            known = state if isinstance(state, AnalysedState) else None
+            gamma = None if known is None else known.memo.get('gamma')
+            if gamma is None:
+                gamma = s.gamma(q, qd, qe=qe, qde=qde, pool=None if known is None else known.pool)
+                if known is not None:  # γ at this state, for its next query
+                    known.memo['gamma'] = freeze(gamma)
+            state.qdd, state.lam = s.solve_augmented(
+                q,
+                qd,
+                Q,
+                Cq=state.Cq,
+                gamma=gamma,
+                partition=None if known is None else known.partition,
+            )
             F_S = -self._spring_force(qe, qde, values, parts) * e_z
         finally:
             self.time_s += time.perf_counter() - t0
         return state.qdd[:, s.ind[0]], F_S, s.joint_reactions(state.lam, q)
-
-    def _gamma(self, q, qd, qe, qde) -> np.ndarray:
-        """γ of eq. 11 at a state of the ground-mounted module; a remembered (read-only)
-        state's is kept, since the finite differences of the loads and settings query
-        the same state again and again (bit for bit as computed afresh)."""
-        last = self._last_gamma
-        if last is not None and last[0] is q and last[1] is qd:
-            return last[2]
-        s = self.solver
-        pool = (
-            self._last_pool[1] if self._last_pool is not None and self._last_pool[0] is q else None
-        )
-        gamma = s._gamma_all(q, qd, s._drives(None, q.shape[0]), qe, qde, pool)
-        if frozen(q) and frozen(qd):
-            self._last_gamma = (q, qd, freeze(gamma))
-        return gamma
 
     def mount_response(
         self,
@@ -485,11 +508,11 @@ class SuspensionModule:
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
             params = {self.spring_name: self._spring_values(None, None, None, k_S, c_S, settings)}
-            qe, qde = s._ext(state.q), s._ext(state.qd)
+            qe, qde = s.extend(state.q), s.extend(state.qd)
             gi = self._spring_group[0]
             geo = {gi: s.force_groups[gi].geometry(qe)}
-            values = s._force_values(N, loads, params)
-            Q, parts = s._forces(state.q, qe, qde, values, geo)
+            values = s.force_values(N, loads, params)
+            Q, parts = s.applied_forces(state.q, qe, qde, values, geo)
             frame = self.frame_accelerations(pose)
             if acceleration is not None:
                 a = np.asarray(acceleration, dtype=float).reshape(N, 2)
@@ -503,14 +526,26 @@ class SuspensionModule:
             tile = (lambda x: np.concatenate([x] * blocks)) if blocks > 1 else (lambda x: x)
             q, Cq = tile(state.q), tile(state.Cq)
             motion = self.mount_motion(tuple(tile(p) for p in pose), acc)
-            # solve_augmented(q, qd, Qb, Cq=Cq, motion=motion), with the remembered pose's
-            # partitioning (each block's is the same)
-            s.calls['augmented'] += 1
-            partition = tuple(tile(a) for a in s._partition(state.Cq))
-            qdd, lam = s._augmented(
-                q, qd, Qb, Cq, s.gamma(q, qd, motion), motion=motion, partition=partition
+            # with the pose's partitioning and joint Jacobians (each block's are the same)
+            known = state if isinstance(state, AnalysedState) else None
+            part = None if known is None else known.partition
+            if part is None:
+                part = s.partition(state.Cq)
+            jac = None if known is None else known.pose_memo.get('joint_jacobians')
+            if jac is None:
+                jac = tuple(freeze(j) for j in s.joint_jacobians(state.q))
+                if known is not None:
+                    known.pose_memo['joint_jacobians'] = jac
+            qdd, lam = s.solve_augmented(
+                q,
+                qd,
+                Qb,
+                Cq=Cq,
+                motion=motion,
+                gamma=s.gamma(q, qd, motion),
+                partition=(tile(part[0]), tile(part[1])),
             )
-            R = s.reactions(q, lam, tuple(tile(j) for j in s._joint_jacobians(state.q)))
+            R = s.reactions(q, lam, tuple(tile(j) for j in jac))
             # Newton-Euler on the frame: all the linkage applies on it (its drive aside)
             on_frame = self._frame_mass * qdd[:, self._frame] - R[:, self._mount_k, 0]
             P = np.stack(
@@ -537,8 +572,18 @@ class SuspensionModule:
     ) -> float:
         """Largest position-constraint violation ``max |C(q)|`` over the states [m]
         (chassis mount: at the mount ``pose`` the states were analysed at)."""
-        last = self._last_residual
-        if last is not None and state.q is last[0] and pose is last[1]:
-            return last[2]  # the last kinematics' Newton iteration has it
+        if (
+            isinstance(state, AnalysedState)
+            and state.residual is not None
+            and _same_pose(pose, state.pose)
+        ):
+            return state.residual  # its position analysis' last Newton iteration has it
         motion = None if pose is None else self.mount_motion(pose)
         return float(np.max(np.abs(self.solver.constraints(state.q, motion)), initial=0.0))
+
+
+def _same_pose(a: tuple[np.ndarray, ...] | None, b: tuple[np.ndarray, ...] | None) -> bool:
+    """Whether two mount poses (or their absence) are equal, value for value."""
+    if a is None or b is None:
+        return a is b
+    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))

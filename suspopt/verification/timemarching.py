@@ -24,10 +24,11 @@ from scipy.integrate import solve_ivp
 from suspopt.errors import ConfigError, ModelError
 from suspopt.models.assembly import AssemblyEvaluator
 from suspopt.multibody.components import SuspensionKinematicsComp
+from suspopt.multibody.reduced import reduced_modules
 from suspopt.records.trajectory import Trajectory
 from suspopt.spec.schema import Scenario, StudyConfig
 from suspopt.transcription.problem import Scales
-from suspopt.transcription.vehicle import vehicle_assembly
+from suspopt.transcription.vehicle import multibody_modules, vehicle_assembly
 
 
 class VehicleRHS:
@@ -49,6 +50,8 @@ class VehicleRHS:
         modules: dict | None = None,
     ):
         self.scenario = scenario
+        if fidelity == 'mixed':  # each linkage reduced to its travel, exact to ~1e-12
+            modules = reduced_modules(modules or multibody_modules(config))
         self.assembly = vehicle_assembly(config, scenario, fidelity, modules)
         self.evaluator = AssemblyEvaluator(self.assembly)
         spec = self.assembly.spec
