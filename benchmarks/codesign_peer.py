@@ -39,7 +39,7 @@ only. A single scalar would couple every node in the Hessian (CasADi then spends
 the build on the dense rows); bounding every copy would make the bound constraints
 linearly dependent where the optimum sits on a bound.
 
-Transcriptions (``--help``):
+Transcriptions (the rattlespace bound holds at the state nodes):
 
 * ``radau``: Legendre-Gauss-Radau collocation on S uniform segments of order n (the grid of
   Dymos' ``Radau(compressed=True)``): n LGR points per segment (τ = -1 included) plus the
@@ -53,11 +53,13 @@ Transcriptions (``--help``):
   (the original's ``TR``/``CTR``/``ED`` options, which it runs with nt = 1000); the control
   is piecewise linear between the points.
 
-Verification: ``solve_ivp`` (DOP853, rtol 1e-11) marches the same ODE, with the
-objective integrand as a fifth state, under the collocation's own control representation,
+Verification: ``solve_ivp`` (DOP853, rtol 1e-11) marches the same ODE, with the three
+objective terms as more states, under the collocation's own control representation,
 piece by piece between the road's knots and the segment ends (where the control may jump);
 it reports J, the largest state difference at the nodes and the largest |x3| along the
-march. The passive optimum is also checked by marching at b*, k* and at ±1 % in each.
+march. The passive optimum is also checked by marching at b*, k* and at ±1 % in each, and
+both optima are marched once more from x1(0) = -z_0(0) (a model in absolute coordinates
+with a zero initial state on the unshifted road) to show what that start changes.
 
 Run ``python benchmarks/codesign_peer.py`` (writes ``benchmarks/results/codesign_peer.json``
 and ``benchmarks/results/codesign_reference.json``); ``--quick`` for a short check.
@@ -69,6 +71,7 @@ import argparse
 import datetime
 import json
 import os
+import re
 import statistics
 import sys
 import time
@@ -306,6 +309,7 @@ class Solution:
     build_s: float
     solve_s: float
     max_rattle_nodes: float  # max |x3| at the state nodes [m]
+    max_abs: dict[str, float]  # largest magnitude of each state and of u at the nodes
     plant_copy_spread: float  # max |copy - first copy| / first copy
     start: tuple[float, float]
     t_state: np.ndarray = field(repr=False)
@@ -418,6 +422,10 @@ def solve(
         build_s=build_s,
         solve_s=solve_s,
         max_rattle_nodes=float(np.abs(x_state[2]).max()),
+        max_abs={
+            **{n: float(np.abs(x_state[i]).max()) for i, n in enumerate(STATE_NAMES)},
+            'u': float(np.abs(u_eval).max()),
+        },
         plant_copy_spread=spread,
         start=(float(start[0]), float(start[1])),
         t_state=grid.t_state,
@@ -598,7 +606,7 @@ class ProblemStudy:
     problem: str
     reference: dict[str, Any]
     reference_march: dict[str, Any]
-    samples_10ms: dict[str, list[float]]
+    samples_10ms: dict[str, list[float | None]]
     control_lgr: list[float]  # the reference control at the LGR points, segment by segment
     off_road_start: dict[str, float]  # J when the wheel starts at height 0, not on the road
     rows: list[GridRow]
@@ -610,7 +618,12 @@ class ProblemStudy:
     marching_vertex: dict[str, float] = field(default_factory=dict)
 
 
-def samples_every_10ms(sol: Solution, grid: Grid) -> dict[str, list[float]]:
+def _round(v: float) -> float:
+    """Ten significant digits (the solution is accurate to about that; smaller files)."""
+    return float(f'{v:.10g}')
+
+
+def samples_every_10ms(sol: Solution, grid: Grid) -> dict[str, list[float | None]]:
     """States and control at t = 0, 0.01, ..., 3 s: the nodes at segment starts (exact
     nodal values of the solution, no interpolation)."""
     if grid.kind != 'radau' or abs(0.01 / grid.step - round(0.01 / grid.step)) > 1e-9:
@@ -618,12 +631,12 @@ def samples_every_10ms(sol: Solution, grid: Grid) -> dict[str, list[float]]:
     stride = round(0.01 / grid.step) * grid.order
     idx = np.arange(0, sol.t_state.size, stride)
     u_idx = np.minimum(idx, sol.u_eval.size - 1)
-    out = {'t': sol.t_state[idx].tolist()}
+    out: dict[str, list[float | None]] = {'t': [_round(t) for t in sol.t_state[idx]]}
     for i, name in enumerate(STATE_NAMES):
-        out[name] = sol.x_state[i, idx].tolist()
+        out[name] = [_round(x) for x in sol.x_state[i, idx]]
     u = sol.u_eval[u_idx].copy()
     u[-1] = np.nan  # no control value at t = T (it is not a collocation node)
-    out['u'] = [None if np.isnan(v) else float(v) for v in u]
+    out['u'] = [None if np.isnan(v) else _round(v) for v in u]
     return out
 
 
@@ -713,7 +726,7 @@ def study_problem(
         reference=ref.summary(),
         reference_march=asdict(ref_march),
         samples_10ms=samples_every_10ms(ref, ref_grid),
-        control_lgr=[float(f'{v:.12g}') for v in ref.u_eval] if active else [],
+        control_lgr=[_round(v) for v in ref.u_eval] if active else [],
         off_road_start=off_road,
         rows=rows,
         richardson_J=richardson,
@@ -769,7 +782,7 @@ def markdown(studies: list[ProblemStudy], car: QuarterCar) -> str:
         'points). Timings on a shared 2-core machine: compare within this table only.',
         '',
         '| problem | b* [N s/m] | k* [N/m] | J* | ∫1e5 x1² | ∫0.5 z̈_s² | ∫1e-5 u² '
-        '| J by time marching | max |z_s − z_u| [m] | build [s] | solve [s] | iterations |',
+        '| J by time marching | largest z_s − z_u [m] | build [s] | solve [s] | iterations |',
         '|---|---|---|---|---|---|---|---|---|---|---|---|',
     ]
     for st in studies:
@@ -779,7 +792,7 @@ def markdown(studies: list[ProblemStudy], car: QuarterCar) -> str:
             f'{r["terms"]["tyre"]:.6f} | {r["terms"]["comfort"]:.6f} | '
             f'{r["terms"]["control"]:.6f} | {m["J_march"]:.9f} | {m["max_rattle"]:.5f} | '
             f'{_median(st.timing["build_s"])} | {_median(st.timing["solve_s"])} | '
-            f'{_median(st.timing["iterations"])} |'
+            f'{", ".join(str(int(i)) for i in st.timing["iterations"])} |'
         )
     for st in studies:
         rich = (st.richardson_J - st.reference['J']) / st.reference['J']
@@ -819,6 +832,37 @@ def markdown(studies: list[ProblemStudy], car: QuarterCar) -> str:
                 f'b* (1 {st.marching_vertex["b_relative_offset"]:+.1e}) and '
                 f'k* (1 {st.marching_vertex["k_relative_offset"]:+.1e}).',
             ]
+    co, pa = studies[0], studies[-1]
+    mx = co.reference['max_abs']
+    published = (
+        "Published values: the DT QP example reports no optimum (its README's solution "
+        'section is commented out, and so are the lines of `SimpleSuspension_output.m` that '
+        'printed bs, ks and F). What it gives is a scaling "with knowledge of the solution" '
+        '(`SimpleSuspensionSimultaneous.m`): u 400, states [0.004 0.4 0.04 0.04], plant '
+        f'[1e2; 1e4]. The co-design reference has b* = {co.reference["b"]:.4g}, '
+        f'k* = {co.reference["k"]:.4g}, largest |u| = {mx["u"]:.0f} N and largest states '
+        + ', '.join(f'{mx[n]:.2g}' for n in STATE_NAMES)
+        + ', the same magnitudes.'
+    )
+    tr = {
+        st.problem: r
+        for st in studies
+        for r in st.rows
+        if r.solution['grid'].startswith('trapezoid nt = 1000 ')
+    }
+    if len(tr) == 2:
+        c_, p_ = tr['codesign'], tr['passive']
+        published += (
+            " The original's own discretization (trapezoid, nt = 1000, steps of 3.003 ms that "
+            "straddle the road's 1 ms knots) gives J "
+            f'{100 * c_.dJ_vs_reference:+.2f} % (co-design) and '
+            f'{100 * p_.dJ_vs_reference:+.2f} % (passive) from the converged values, with '
+            f'b* {100 * (c_.solution["b"] / co.reference["b"] - 1):+.1f} % and '
+            f'k* {100 * (c_.solution["k"] / co.reference["k"] - 1):+.1f} % (co-design), '
+            f'b* {100 * (p_.solution["b"] / pa.reference["b"] - 1):+.2f} % and '
+            f'k* {100 * (p_.solution["k"] / pa.reference["k"] - 1):+.2f} % (passive).'
+        )
+    parts += ['', published]
     m = studies[0].reference_march
     parts += [
         '',
@@ -941,6 +985,12 @@ PUBLISHED = {
 }
 
 
+def compact_json(record: dict[str, Any]) -> str:
+    """Indented JSON with every flat list of numbers on one line."""
+    text = json.dumps(record, indent=1, default=float)
+    return re.sub(r'\[([^\[\]{}"]*)\]', lambda m: '[' + ' '.join(m.group(1).split()) + ']', text)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--quick', action='store_true', help='fewer grids; writes nothing')
@@ -963,7 +1013,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     path = write_result('codesign_peer', 'Co-design benchmark: CasADi peer and reference', md, data)
     REFERENCE_JSON.parent.mkdir(exist_ok=True)
     tmp = REFERENCE_JSON.with_suffix('.json.tmp')
-    tmp.write_text(json.dumps(reference_record(studies, car), indent=1, default=float) + '\n')
+    tmp.write_text(compact_json(reference_record(studies, car)) + '\n')
     os.replace(tmp, REFERENCE_JSON)
     print(f'wrote {path} and {REFERENCE_JSON}')
 
