@@ -29,6 +29,8 @@ def render(results_dir: Path = HERE / 'results') -> str:
     parts = [INTRO]
     for path in sorted(results_dir.glob('*.json')):
         rec = json.loads(path.read_text())
+        if 'markdown' not in rec:  # a data file (e.g. codesign_reference.json), no section
+            continue
         versions = ', '.join(f'{k} {v}' for k, v in rec.get('versions', {}).items())
         parts += [
             f'## {rec["title"]}',
