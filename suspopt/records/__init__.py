@@ -1,1 +1,3 @@
-"""Typed records of what suspopt computes: trajectories, solves, verifications, studies."""
+"""Typed records of what suspopt computes: trajectories, solves and their verifications,
+and every study (``docs/results.md``). Plain dataclasses with ``to_json()`` /
+``from_json()`` (:mod:`suspopt.records.codec`); nothing here computes."""
