@@ -136,6 +136,7 @@ class Background:
             key = self._queue.pop(0)
             job = self._jobs[key]
             self._started += 1
+            assert self._dir is not None
             job.path = os.path.join(self._dir, f'job-{self._started}.pickle')
             job.process = mp.get_context('fork').Process(
                 target=_child, args=(job.fn, job.args, job.path), daemon=True, name=f'suspopt {key}'

@@ -15,4 +15,3 @@ def resolve_scales(config: StudyConfig) -> Scales:
     if norm == 'paper':
         return (dict(PAPER_SCALES),) * n
     return (dict(config.objective.scales),) * n  # custom
-

@@ -82,9 +82,12 @@ def test_a_time_marching_check_in_a_child_equals_the_one_here():
     cfg = StudyConfig()
     scales = resolve_scales(cfg)
     terms = [dict.fromkeys(cfg.terms(), 1.0)]
-    here = time_marching_check(cfg, 'low', cfg.design.initial(), terms, scales, keep=True)
+    here, trajectories = time_marching_check(
+        cfg, 'low', cfg.design.initial(), terms, scales, keep=True
+    )
     with Background(jobs=1) as bg:
         bg.submit('tm', time_marching_check, cfg, 'low', cfg.design.initial(), terms, scales)
-        there = bg.result('tm')
-    assert there['scenarios'][0]['terms'] == here['scenarios'][0]['terms']
-    assert there['max_rel_diff'] == here['max_rel_diff']
+        there, none = bg.result('tm')
+    assert there.scenarios[0].terms == here.scenarios[0].terms
+    assert there.max_rel_diff == here.max_rel_diff
+    assert len(trajectories) == 1 and none == []
