@@ -90,7 +90,8 @@ def start_design(args: argparse.Namespace, config: StudyConfig) -> dict[str, flo
     """``--start``: where IPOPT starts, inside the bounds. Only the free variables move:
     a variable with ``optimize = false`` keeps its configured value (it is not optimized).
     It is not the study's initial design, which also defines the ``reference``
-    normalization (SPEC §5): an optimization from another start minimizes the same f."""
+    normalization (``docs/model.md``, "Objective"): an optimization from another start
+    minimizes the same f."""
     if not args.start:
         return None
     start = parse_design(args.start, '--start', config)

@@ -21,7 +21,7 @@ import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, overload
 
 import numpy as np
 
@@ -165,6 +165,13 @@ def read_manifest(directory: str | Path) -> Manifest:
     return Manifest.from_json(read_json(path), str(path))
 
 
+R = TypeVar('R', bound=Record)
+
+
+@overload
+def read_record(directory: str | Path) -> Record: ...
+@overload
+def read_record(directory: str | Path, kind: type[R]) -> R: ...
 def read_record(directory: str | Path, kind: type[Record] | None = None) -> Record:
     """The record of a run directory, of the kind its manifest names (``kind``: the record
     type expected, a ConfigError if the directory holds another), validated."""

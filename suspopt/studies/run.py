@@ -197,7 +197,7 @@ def optimize(
     label: str | None = None,
     verify: bool = True,
 ) -> SolveRecord:
-    """Optimize the design of one model (SPEC §1) from ``start`` (default: the configured
+    """Optimize the design of one model (paper eq. 14) from ``start`` (default: the configured
     initial design) and verify the optimum by time marching. Writes ``result.json`` (first
     right after IPOPT, so an interrupt during the verification loses nothing), the case
     recorder ``cases.sql`` and copies of the input files (``inputs/``) to ``out_dir`` if

@@ -43,7 +43,7 @@ def run_study(
     verify: bool = True,
     verify_jobs: int | None = None,
 ) -> TwoStepStudy:
-    """The two-step study of SPEC §7, written to ``out_dir`` as it goes.
+    """The two-step study (paper §4), written to ``out_dir`` as it goes.
 
     1. low-fidelity optimization from the initial design;
     2. mixed-fidelity optimization from the step-1 optimum;

@@ -37,7 +37,7 @@ METHOD = f'time-marching (SciPy DOP853, rtol {VERIFY_RTOL:g})'
 def objective_value(
     config: StudyConfig, terms: dict[str, float], scales: dict[str, float]
 ) -> float:
-    """``f = Σ w_k J_k / s_k`` (eq. 4, SPEC §5) — for results computed outside the NLP."""
+    """``f = Σ w_k J_k / s_k`` (paper eq. 4) — for results computed outside the NLP."""
     w = config.objective.weights
     return float(sum(w[t] * terms[t] / scales[t] for t in config.terms()))
 
