@@ -217,8 +217,15 @@ def optimize(
                 vp, config, start, optimize=True, guess=guess, label=label or f'{fidelity}_optimum'
             )
         except ModelError as err:  # what failed, where, is part of the results
-            norm = config.objective.normalization
-            save(model_failure(fidelity, 'optimize', start, err, normalization=norm))
+            failed = model_failure(
+                fidelity,
+                'optimize',
+                start,
+                err,
+                normalization=config.objective.normalization,
+                wall_time_s=time.perf_counter() - t0,
+            )
+            save(failed)
             raise
         rec = save(replace(rec, wall_time_s=time.perf_counter() - t0))
         if rec.interrupted:
