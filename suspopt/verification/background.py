@@ -4,8 +4,9 @@ A study's time-marching verifications need nothing from the optimizations that f
 them, so a study hands each one to a :class:`Background` (through a
 :class:`~suspopt.verification.verify.Verifier`) and goes on: the check runs in a child
 process (``fork``: it starts with everything already imported and built) while this
-process optimizes, and its result is collected when needed. At most ``jobs`` checks run at once (default: the cores this process may use,
-less one for the main work; all of them while the main work waits).
+process optimizes, and its result is collected when needed. At most ``jobs`` checks run
+at once (default: the cores this process may use, less one for the main work; all of
+them while the main work waits).
 
 Each child ignores Ctrl-C (this process decides what an interrupt stops), dies with its
 parent where the platform allows it, and writes its result to a file atomically; a child
