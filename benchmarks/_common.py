@@ -92,8 +92,8 @@ def timed_optimize(
     out = {
         'setup': t1 - t0,
         'guess': t2 - t1,
-        'coloring': res.times['coloring_s'],
-        'solve': t3 - t2 - res.times['coloring_s'],
+        'coloring': res.times.coloring_s,
+        'solve': t3 - t2 - res.times.coloring_s,
         'iterations': res.iterations,
         'fevals': res.function_evaluations,
         'gevals': res.gradient_evaluations,
@@ -101,7 +101,7 @@ def timed_optimize(
         'mbd_s': sum(m.time_s for m in vp.modules.values()) - mbd0,
         'reused': sum(m.reused for m in vp.modules.values()) - reused0,
         'design': res.design,
-        'f': res.objective,
+        'f': res.objective if res.success else res.objective_at_stop,
         'success': res.success,
         'problem': vp,
     }

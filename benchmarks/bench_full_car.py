@@ -124,12 +124,12 @@ def main() -> None:
             t = time.perf_counter()
             study = run_study(full_car_defaults(), Path(tmp) / 'study')
             wall = time.perf_counter() - t
-        s = study['steps']
+        s = study.steps
         print(
             f'\ndefault full car, two-step study, first run (empty cache, verified '
-            f'{all(e.get("verified") for e in study["evaluations"].values())}): '
-            f'{wall:.1f} s; f low {s["low"]["objective"]:.4f}, mixed '
-            f'{s["mixed"]["objective"]:.4f}'
+            f'{all(e.verified for e in study.evaluations.values())}): '
+            f'{wall:.1f} s; f low {s["low"].objective:.4f}, mixed '
+            f'{s["mixed"].objective:.4f}'
         )
     print(
         f'peak RSS of this process: '

@@ -47,8 +47,8 @@ start = cfg.design.initial()
 vp.set_design(start)
 t0 = time.perf_counter(); vp.set_initial_guess(initial_guess(cfg, fid, start)); out['guess_s'] = time.perf_counter() - t0
 res = vp.solve()
-out['coloring_s'] = res.times['coloring_s']
-out['solve_s'] = res.times['solve_s']
+out['coloring_s'] = res.times.coloring_s
+out['solve_s'] = res.times.solve_s
 out['iterations'] = res.iterations
 out['success'] = res.success
 out['f'] = res.objective
@@ -57,7 +57,8 @@ lay = vp.driver.layout()
 out['nlp'] = [lay.n, lay.m, vp.driver.coloring.nnz if vp.driver.coloring else 0,
               vp.driver.coloring.n_colors if vp.driver.coloring else 0]
 t0 = time.perf_counter(); tr = simulate(cfg, fid, res.design, t_eval=[0.0, T]); out['verify_s'] = time.perf_counter() - t0
-out['verify_rel_diff'] = max(abs(res.terms[0][t] / b - 1.0) for t, b in zip(cfg.terms(), tr.J))
+J = res.scenarios[0].reached[1]
+out['verify_rel_diff'] = max(abs(J[t] / b - 1.0) for t, b in zip(cfg.terms(), tr.J))
 vp.cleanup()
 out['peak_rss_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 print('RESULT ' + json.dumps(out))

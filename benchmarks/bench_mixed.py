@@ -158,7 +158,7 @@ def main() -> None:
     )
     with fresh_cache():
         low = optimize(cfg, 'low', scales=scales)
-        start = low['design']
+        start = low.design
         cold = {k: run_once(c, scales, start) for k, c in cfgs.items()}
         runs = {k: [] for k in cfgs}
         lows = []

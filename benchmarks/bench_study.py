@@ -27,20 +27,20 @@ def once(verify: bool) -> dict:
         t = time.perf_counter()
         study = run_study(StudyConfig(), Path(tmp) / 'study', verify=verify)
         wall = time.perf_counter() - t
-    s = study['steps']
+    s = study.steps
     return {
         'wall': wall,
-        'low_solve': s['low']['times']['solve_s'],
-        'mixed_solve': s['mixed']['times']['solve_s'],
-        'coloring': sum(p['coloring_s'] for p in study['problems'].values()),
-        'setup': sum(p['setup_s'] for p in study['problems'].values()),
+        'low_solve': s['low'].times.solve_s,
+        'mixed_solve': s['mixed'].times.solve_s,
+        'coloring': sum(p.coloring_s for p in study.problems.values()),
+        'setup': sum(p.setup_s for p in study.problems.values()),
         'tm': sum(
-            e['verification']['time_s']
-            for e in study['evaluations'].values()
-            if e.get('verification') and 'time_s' in e['verification']
+            e.verification.comparison.time_s
+            for e in study.evaluations.values()
+            if e.verification.comparison is not None
         ),
-        'f_low': s['low']['objective'],
-        'f_mixed': s['mixed']['objective'],
+        'f_low': s['low'].objective,
+        'f_mixed': s['mixed'].objective,
     }
 
 

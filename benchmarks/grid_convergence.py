@@ -92,17 +92,17 @@ def main() -> None:
     if args.mechanism and args.optimum:
         low = optimize(base, 'low', scales=scales, verify=False)
         for label, fid, cfg in models:
-            res = optimize(cfg, fid, start=low['design'], scales=scales, verify=False)
-            if res['success']:
-                designs[label]['own mixed optimum'] = res['design']
+            res = optimize(cfg, fid, start=low.design, scales=scales, verify=False)
+            if res.success:
+                designs[label]['own mixed optimum'] = res.design
                 print(
                     f'{label}: own mixed optimum (default grid) '
-                    + ', '.join(f'{k} = {v:.1f}' for k, v in res['design'].items())
-                    + f', f = {res["objective"]:.6f}',
+                    + ', '.join(f'{k} = {v:.1f}' for k, v in res.design.items())
+                    + f', f = {res.objective:.6f}',
                     flush=True,
                 )
             else:
-                print(f'{label}: mixed optimization failed ({res["status"]})', flush=True)
+                print(f'{label}: mixed optimization failed ({res.status})', flush=True)
     names = list(dict.fromkeys(n for d in designs.values() for n in d))
     print(f'\n# collocation vs time marching — {machine()}, suspopt {git_revision()}\n')
     print(
@@ -130,13 +130,13 @@ def main() -> None:
                     vp.set_design(d)
                     vp.set_initial_guess(None)
                     res = vp.solve(optimize=False)
-                    J = np.array([res.terms[0][t] for t in base.terms()])
+                    J = np.array([res.scenarios[0].reached[1][t] for t in base.terms()])
                     rel = np.abs(J / tm[label, name] - 1.0)
                     errs[name] = float(np.max(rel))
                     if errs[name] > worst[0]:
                         worst = (errs[name], f'{base.terms()[int(np.argmax(rel))]} ({name})')
                     if name == 'initial':
-                        f0 = res.objective
+                        f0 = res.scenarios[0].reached[0]
             cells = [f'{100 * errs[k]:.3f} %' if k in errs else '—' for k in names]
             ok = 'yes' if worst[0] <= CRITERION else '**no**'
             print(

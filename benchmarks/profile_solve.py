@@ -38,7 +38,7 @@ def main() -> None:
     scales = resolve_scales(cfg)
     start = cfg.design.initial()
     if args.fidelity == 'mixed':
-        start = optimize(cfg, 'low', scales=scales)['design']
+        start = optimize(cfg, 'low', scales=scales).design
     timed_optimize(cfg, args.fidelity, scales, start)['problem'].cleanup()  # warm-up
     prof = cProfile.Profile()
     prof.enable()

@@ -1,7 +1,8 @@
-"""Tables and figures of a topology study (:mod:`suspopt.compare`), from its directory.
+"""Tables and figures of a topology study (:class:`~suspopt.records.compare.CompareStudy`),
+from its directory.
 
 Reads only ``compare.json`` and the case recorders the study wrote (``suspopt report DIR``
-dispatches here when the directory holds a ``compare.json``). Writes ``table.md`` and
+dispatches here on a ``compare`` manifest). Writes ``table.md`` and
 
 * ``figures/trajectories.png`` — chassis accelerations and wheel travel of every topology
   at its own optimum (and the low-fidelity model at its optimum);
@@ -14,14 +15,16 @@ dispatches here when the directory holds a ``compare.json``). Writes ``table.md`
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from suspopt.models.objective import term_units
-from suspopt.output.figures import corner_labels, plot_set, road_figure, save_figure
-from suspopt.output.rundir import read_json, read_trajectory, write_text
+from suspopt.output.figures import plot_set, read_setting, road_figure, save_figure
+from suspopt.output.format import design_columns, term_columns
+from suspopt.output.rundir import read_trajectory, write_text
+from suspopt.records.compare import LOW, CompareStudy, Kinematics, MechanismCurves
+from suspopt.records.solve import SolveRecord
 
 COLORS = (
     'tab:red',
@@ -34,200 +37,213 @@ COLORS = (
     'tab:cyan',
 )
 MARK = {True: '✓', False: '✗', None: '·'}
+LOW_STYLE = {'color': 'tab:blue', 'lw': 1.0, 'ls': ':'}
 
 
-def _unit(name: str) -> str:
-    return {'k_S': 'N/m', 'c_S': 'N·s/m', 'k_R': 'N·m/rad'}[name[:3]]
+def model_label(data: CompareStudy, model: str) -> str:
+    if model == LOW:
+        return f'{data.vehicle_model.replace("_", " ")} (low fidelity)'
+    return next(t.label for t in data.topologies if t.model == model)
 
 
-def model_label(data: dict[str, Any], model: str) -> str:
-    if model == 'low':
-        return f'{data.get("vehicle_model", "half_car").replace("_", " ")} (low fidelity)'
-    return model.split(':', 1)[1]
-
-
-def design_label(design: str) -> str:
+def design_label(data: CompareStudy, design: str) -> str:
     if design == 'initial':
         return 'initial design'
     if design == 'low_optimum':
         return 'low-fidelity optimum'
-    return f'{design.split(":", 1)[1]} optimum'
+    return next(f'{t.label} optimum' for t in data.topologies if t.optimum == design)
 
 
-def _cell(data, design, model):
-    return data['cells'].get(f'{design}|{model}')
-
-
-def _mark(rec: dict[str, Any] | None) -> str:
-    if not rec:
+def _mark(rec: SolveRecord | None) -> str:
+    if rec is None:
         return ''
-    if not rec.get('success'):
+    if not rec.success:
         return 'failed'
-    return MARK[rec.get('verified')]
+    return MARK[rec.verified]
 
 
-def compare_markdown(data: dict[str, Any]) -> str:
-    """The topology study as Markdown (see the module docstring)."""
-    models, designs = (
-        data['models'],
-        [d for d in data['design_order'] if d in data.get('designs', {})],
-    )
-    names, terms = data['design_names'], data['terms']
-    lines = [f'**Warning:** {w}' for w in data.get('warnings', [])]
-    if not data.get('complete'):
+def _range(c: MechanismCurves, key: str, scale: float, digits: int) -> str:
+    lo, hi = (f'{scale * x:.{digits}f}' for x in (min(c.curve(key)), max(c.curve(key))))
+    return ' … '.join(x if x.strip('-0.') else x.lstrip('-') for x in (lo, hi))
+
+
+def _header(data: CompareStudy) -> list[str]:
+    """Warnings, failures, and the normalization."""
+    lines = [f'**Warning:** {w}' for w in data.warnings]
+    if not data.complete:
         lines.append(
             '**Incomplete:** the study '
-            + ('was interrupted' if data.get('interrupted') else 'did not finish')
+            + ('was interrupted' if data.interrupted else 'did not finish')
             + '; what finished is shown.'
         )
-    if not data.get('verify', True):
+    if not data.verify:
         lines.append('**Not checked:** time-marching verification was skipped (--no-verify).')
-    for f in data.get('failures', []):
-        where = f.get('model', '') + (f' at {f["design"]}' if f.get('design') else '')
-        lines.append(
-            f'**Failed:** {f["what"]} in {where}: {f.get("status")} {f.get("message", "")}'.rstrip()
-        )
-    s = data['scales'][0]
-    weights = data.get('weights', {})
-    lines += ([''] if lines else []) + [
-        f'Normalization `{data["normalization"]}`, s = ('
-        + ', '.join(f'{t} {s[t]:.6g}' for t in terms)
-        + '); f = '
-        + ' + '.join(f'{weights[t]:g} J_{t}/s_{t}' for t in terms if weights.get(t))
-        + '. Every topology is optimized from the low-fidelity optimum.',
-        '',
-    ]
-    kin = data.get('kinematics') or {}
-    if kin.get('curves'):
-        lo, hi = kin['travel_range']
-        lines += [
-            f'**The linkages** (reference pose; wheel rate for k = {kin["spring_rate"]:g} '
-            f'N/m; ranges over the wheel travel {1e3 * lo:g} … {1e3 * hi:g} mm)',
+    for f in data.failures:
+        where = f.model + (f' at {f.design}' if f.design else '')
+        lines.append(f'**Failed:** {f.what} in {where}: {f.status} {f.message}'.rstrip())
+    s, terms, weights = data.scales[0], data.terms, data.weights
+    return (
+        lines
+        + ([''] if lines else [])
+        + [
+            f'Normalization `{data.normalization}`, s = ('
+            + ', '.join(f'{t} {s[t]:.6g}' for t in terms)
+            + '); f = '
+            + ' + '.join(f'{weights[t]:g} J_{t}/s_{t}' for t in terms if weights.get(t))
+            + '. Every topology is optimized from the low-fidelity optimum.',
             '',
-            '| mechanism | moving mass [kg] | motion ratio | wheel rate / k | motion '
-            'ratio range | camber range [deg] | track change range [mm] |',
-            '|---|---|---|---|---|---|---|',
         ]
-        for lab, c in kin['curves'].items():
-            ref = c['at_reference']
+    )
 
-            def rng(key: str, scale: float, digits: int) -> str:
-                lo_, hi_ = (f'{scale * x:.{digits}f}' for x in (min(c[key]), max(c[key])))
-                return ' … '.join(x if x.strip('-0.') else x.lstrip('-') for x in (lo_, hi_))
 
-            lines.append(
-                f'| {lab} | {c["moving_mass_kg"]:.1f} | {ref["motion_ratio"]:.4f} | '
-                f'{ref["wheel_rate"] / kin["spring_rate"]:.4f} | '
-                f'{rng("motion_ratio", 1.0, 3)} | {rng("camber", 1.0, 2)} | '
-                f'{rng("track_change", 1e3, 1)} |'
-            )
-        lines.append('')
-    lines += [
+def _linkages(kin: Kinematics | None) -> list[str]:
+    if kin is None or not kin.curves:
+        return []
+    lo, hi = kin.travel_range
+    lines = [
+        f'**The linkages** (reference pose; wheel rate for k = {kin.spring_rate:g} '
+        f'N/m; ranges over the wheel travel {1e3 * lo:g} … {1e3 * hi:g} mm)',
+        '',
+        '| mechanism | moving mass [kg] | motion ratio | wheel rate / k | motion '
+        'ratio range | camber range [deg] | track change range [mm] |',
+        '|---|---|---|---|---|---|---|',
+    ]
+    for lab, c in kin.curves.items():
+        ref = c.at_reference
+        lines.append(
+            f'| {lab} | {c.moving_mass_kg:.1f} | {ref["motion_ratio"]:.4f} | '
+            f'{ref["wheel_rate"] / kin.spring_rate:.4f} | '
+            f'{_range(c, "motion_ratio", 1.0, 3)} | {_range(c, "camber", 1.0, 2)} | '
+            f'{_range(c, "track_change", 1e3, 1)} |'
+        )
+    return lines + ['']
+
+
+def _optima(data: CompareStudy) -> list[str]:
+    names = data.design_names
+    lines = [
         '**Optima** (each in its own model)',
         '',
-        '| model | '
-        + ' | '.join(f'{n} [{_unit(n)}]' for n in names)
-        + ' | f | IPOPT | iterations | solve [s] | verified |',
+        f'| model | {design_columns(names)} | f | IPOPT | iterations | solve [s] | verified |',
         '|---|' + '---|' * (len(names) + 5),
     ]
-    for m in models:
-        st = data['steps'].get(m)
-        if not st:
+    for m in data.models:
+        st = data.steps.get(m)
+        if st is None:
             continue
-        d = st.get('design') or {}
-        f = st.get('objective')
-        solve = (st.get('times') or {}).get('solve_s')
+        d, f = st.design, st.objective
+        solve = st.times.solve_s if st.times is not None else None
         lines.append(
             f'| {model_label(data, m)} | '
             + ' | '.join(f'{d[n]:.0f}' if n in d else '—' for n in names)
-            + f' | {"—" if f is None else f"{f:.4f}"} | {st.get("status")} | '
-            f'{st.get("iterations")} | {"—" if solve is None else f"{solve:.2f}"} | '
+            + f' | {"—" if f is None else f"{f:.4f}"} | {st.status} | '
+            f'{st.iterations} | {"—" if solve is None else f"{solve:.2f}"} | '
             f'{_mark(st)} |'
         )
-    best = data.get('best') or {}
+    return lines
 
-    def cross(d: str, m: str) -> str:
-        c = _cell(data, d, m)
-        if not c:
-            return '—'
-        if not c.get('success'):
-            return f'failed ({c.get("status")})'
-        v = c.get('verification') or {}
-        f = f'{c["objective"]:.4f}'
-        if (best.get(m) or {}).get('best') == d:
-            f = f'**{f}**'
-        return f + (f' ({v["objective"]:.4f})' if 'objective' in v else '') + f' {_mark(c)}'
 
-    def excess(d: str, m: str) -> str:
-        e = ((best.get(m) or {}).get('excess') or {}).get(d)
-        return '—' if e is None else f'{100 * e:+.1f} %'
+def _cross_cell(data: CompareStudy, d: str, m: str) -> str:
+    c = data.cell(d, m)
+    if c is None:
+        return '—'
+    if not c.success:
+        return f'failed ({c.status})'
+    comparison = c.verification.comparison
+    f = f'{c.objective:.4f}'
+    best = data.best.get(m)
+    if best is not None and best.best == d:
+        f = f'**{f}**'
+    tm = f' ({comparison.objective:.4f})' if comparison is not None else ''
+    return f + tm + f' {_mark(c)}'
 
-    def agreement(d: str, m: str) -> str:
-        v = (_cell(data, d, m) or {}).get('verification') or {}
-        if 'max_rel_diff' not in v:
-            return '—'
-        return f'{100 * v["max_rel_diff"]:.3f} % ({v["scenarios"][0]["worst_term"]})' + (
-            '' if v['verified'] else ' **NOT verified**'
-        )
 
-    def table(title: str, cell) -> list[str]:
-        """A design × model table under ``title``, one cell per (design, model)."""
-        return [
-            '',
-            title,
-            '',
-            '| design \\ model | ' + ' | '.join(model_label(data, m) for m in models) + ' |',
-            '|---|' + '---|' * len(models),
-        ] + [
-            f'| {design_label(d)} | ' + ' | '.join(cell(d, m) for m in models) + ' |'
-            for d in designs
-        ]
+def _excess_cell(data: CompareStudy, d: str, m: str) -> str:
+    best = data.best.get(m)
+    e = best.excess.get(d) if best is not None else None
+    return '—' if e is None else f'{100 * e:+.1f} %'
 
-    lines += table(
+
+def _agreement_cell(data: CompareStudy, d: str, m: str) -> str:
+    c = data.cell(d, m)
+    comparison = c.verification.comparison if c is not None else None
+    if comparison is None:
+        return '—'
+    return f'{100 * comparison.max_rel_diff:.3f} % ({comparison.scenarios[0].worst_term})' + (
+        '' if comparison.agrees else ' **NOT verified**'
+    )
+
+
+def _design_by_model(
+    data: CompareStudy, title: str, cell: Callable[[CompareStudy, str, str], str]
+) -> list[str]:
+    """A design × model table under ``title``, one cell per (design, model)."""
+    models = data.models
+    designs = [d for d in data.design_order if d in data.designs]
+    return [
+        '',
+        title,
+        '',
+        '| design \\ model | ' + ' | '.join(model_label(data, m) for m in models) + ' |',
+        '|---|' + '---|' * len(models),
+    ] + [
+        f'| {design_label(data, d)} | ' + ' | '.join(cell(data, d, m) for m in models) + ' |'
+        for d in designs
+    ]
+
+
+def compare_markdown(data: CompareStudy) -> str:
+    """The topology study as Markdown (see the module docstring)."""
+    terms = data.terms
+    lines = _header(data) + _linkages(data.kinematics) + _optima(data)
+    lines += _design_by_model(
+        data,
         '**Cross table: f of every design in every model** (collocation; time '
         'marching in brackets; ✓ verified by time marching within '
-        f'{100 * data.get("tolerance", 5e-3):g} %, ✗ NOT verified, · not '
+        f'{100 * data.tolerance:g} %, ✗ NOT verified, · not '
         'checked; bold: the best design in that model)',
-        cross,
+        _cross_cell,
     )
-    if best:
-        lines += table(
+    if data.best:
+        lines += _design_by_model(
+            data,
             "**Excess over the model's own optimum**, f / f* − 1 (what a design "
             'found on another model costs in this one)',
-            excess,
+            _excess_cell,
         )
-    lines += table(
+    lines += _design_by_model(
+        data,
         '**Collocation vs time marching** (largest relative difference over the '
         'weighted J_k, and the term)',
-        agreement,
+        _agreement_cell,
     )
     lines += [
         '',
         "**Objective terms J_k at each model's own optimum** (collocation)",
         '',
-        '| model | ' + ' | '.join(f'J_{t} [{term_units(t)}]' for t in terms) + ' |',
+        f'| model | {term_columns(terms)} |',
         '|---|' + '---|' * len(terms),
     ]
-    for m in models:
-        c = _cell(data, (best.get(m) or {}).get('own_optimum') or '', m)
-        if c and c.get('terms'):
+    for m in data.models:
+        best = data.best.get(m)
+        c = data.cell(best.own_optimum, m) if best is not None else None
+        J = c.terms if c is not None else None
+        if J:
             lines.append(
-                f'| {model_label(data, m)} | '
-                + ' | '.join(f'{c["terms"][t]:.5g}' for t in terms)
-                + ' |'
+                f'| {model_label(data, m)} | ' + ' | '.join(f'{J[t]:.5g}' for t in terms) + ' |'
             )
-    if 'wall_time_s' in data:
-        n = sum(1 for c in data['cells'].values() if c.get('mode') == 'evaluate')
+    if data.wall_time_s is not None:
+        n = sum(1 for c in data.cells.values() if c.mode == 'evaluate')
         lines += [
             '',
-            f'{len(data["steps"])} optimizations and {n} evaluations, '
-            f'{data["wall_time_s"]:.1f} s in all.',
+            f'{len(data.steps)} optimizations and {n} evaluations, '
+            f'{data.wall_time_s:.1f} s in all.',
         ]
     return '\n'.join(lines) + '\n'
 
 
 # ---------------------------------------------------------------------------- figures
-def _kinematics_figure(path: Path, kin: dict[str, Any]) -> Path:
+def _kinematics_figure(path: Path, kin: Kinematics) -> Path:
     import matplotlib
 
     matplotlib.use('Agg')
@@ -235,15 +251,15 @@ def _kinematics_figure(path: Path, kin: dict[str, Any]) -> Path:
 
     panels = (
         ('motion_ratio', 'motion ratio [-]', 1.0),
-        ('wheel_rate', f'wheel rate [N/mm] (k = {kin["spring_rate"]:g} N/m)', 1e-3),
+        ('wheel_rate', f'wheel rate [N/mm] (k = {kin.spring_rate:g} N/m)', 1e-3),
         ('camber', 'camber [deg]', 1.0),
         ('track_change', 'track change [mm]', 1e3),
     )
     fig, axes = plt.subplots(2, 2, figsize=(10, 6.6), sharex=True, constrained_layout=True)
-    for (lab, c), color in zip(kin['curves'].items(), COLORS):
-        w = np.asarray(c['travel']) * 1e3
+    for (lab, c), color in zip(kin.curves.items(), COLORS):
+        w = np.asarray(c.travel) * 1e3
         for ax, (key, _, scale) in zip(axes.flat, panels):
-            ax.plot(w, np.asarray(c[key]) * scale, '-', color=color, lw=1.6, label=lab)
+            ax.plot(w, np.asarray(c.curve(key)) * scale, '-', color=color, lw=1.6, label=lab)
     for ax, (_, head, _) in zip(axes.flat, panels):
         ax.set_ylabel(head)
         ax.grid(alpha=0.3)
@@ -256,19 +272,29 @@ def _kinematics_figure(path: Path, kin: dict[str, Any]) -> Path:
     return path
 
 
-def _cross_figure(path: Path, data: dict[str, Any]) -> Path:
+def _cross_text(c: SolveRecord | None, excess: float) -> str:
+    if c is None:
+        return '—'
+    if not c.success or c.objective is None:
+        return 'failed'
+    if np.isfinite(excess):
+        return f'{c.objective:.3f}\n{excess:+.1f} % {_mark(c)}'
+    return f'{c.objective:.3f} {_mark(c)}'
+
+
+def _cross_figure(path: Path, data: CompareStudy) -> Path:
     import matplotlib
 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    models = data['models']
-    designs = [d for d in data['design_order'] if d in data.get('designs', {})]
-    best = data.get('best') or {}
+    models = data.models
+    designs = [d for d in data.design_order if d in data.designs]
     E = np.full((len(designs), len(models)), np.nan)
     for i, d in enumerate(designs):
         for j, m in enumerate(models):
-            e = ((best.get(m) or {}).get('excess') or {}).get(d)
+            best = data.best.get(m)
+            e = best.excess.get(d) if best is not None else None
             if e is not None:
                 E[i, j] = 100 * e
     fig, ax = plt.subplots(
@@ -278,26 +304,17 @@ def _cross_figure(path: Path, data: dict[str, Any]) -> Path:
     im = ax.imshow(E, cmap='Reds', vmin=0.0, vmax=max(vmax, 1e-9), aspect='auto')
     for i, d in enumerate(designs):
         for j, m in enumerate(models):
-            c = _cell(data, d, m)
-            if c and c.get('success') and c.get('objective') is not None:
-                txt = (
-                    f'{c["objective"]:.3f}\n{E[i, j]:+.1f} % {_mark(c)}'
-                    if np.isfinite(E[i, j])
-                    else f'{c["objective"]:.3f} {_mark(c)}'
-                )
-            else:
-                txt = 'failed' if c else '—'
             ax.text(
                 j,
                 i,
-                txt,
+                _cross_text(data.cell(d, m), E[i, j]),
                 ha='center',
                 va='center',
                 fontsize=8,
                 color='white' if np.isfinite(E[i, j]) and E[i, j] > 0.6 * vmax else 'black',
             )
     ax.set_xticks(range(len(models)), [model_label(data, m) for m in models], rotation=15)
-    ax.set_yticks(range(len(designs)), [design_label(d) for d in designs])
+    ax.set_yticks(range(len(designs)), [design_label(data, d) for d in designs])
     ax.set_xlabel('model the design is evaluated in')
     ax.set_title(
         "f of every design in every model; colour: excess over the model's own optimum [%]",
@@ -309,50 +326,34 @@ def _cross_figure(path: Path, data: dict[str, Any]) -> Path:
     return path
 
 
-def render_compare(out_dir: str | Path) -> list[Path]:
+def render_compare(out: Path, data: CompareStudy, file: str) -> list[Path]:
     """Write ``table.md`` and ``figures/`` of a topology-study directory."""
     import matplotlib
 
     matplotlib.use('Agg')
-    import openmdao.api as om
 
-    out = Path(out_dir)
-    data = read_json(out / 'compare.json')
     write_text(out / 'table.md', compare_markdown(data))
     figs = out / 'figures'
     figs.mkdir(exist_ok=True)
-    written = [out / 'table.md', road_figure(figs / 'road.png', out, data['config'])]
-    if (data.get('kinematics') or {}).get('curves'):
-        written.append(_kinematics_figure(figs / 'kinematics.png', data['kinematics']))
-    if data.get('cells'):
+    setting = read_setting(out, data.config, file)
+    written = [out / 'table.md', road_figure(figs / 'road.png', setting)]
+    if data.kinematics is not None and data.kinematics.curves:
+        written.append(_kinematics_figure(figs / 'kinematics.png', data.kinematics))
+    if data.cells:
         written.append(_cross_figure(figs / 'cross.png', data))
-    curves = []
-    own = [
-        (
-            'low',
-            'low_optimum',
-            'low-fidelity model at its optimum',
-            {'color': 'tab:blue', 'lw': 1.0, 'ls': ':'},
-        )
-    ]
+    own = [('low', 'low_optimum', 'low-fidelity model at its optimum', LOW_STYLE)]
     own += [
-        (t['model'], t['optimum'], f'{t["label"]} at its optimum', {'color': c, 'lw': 1.2})
-        for t, c in zip(data['topologies'], COLORS)
+        (t.model, t.optimum, f'{t.label} at its optimum', {'color': c, 'lw': 1.2})
+        for t, c in zip(data.topologies, COLORS)
     ]
+    curves = []
     for model, design, label, style in own:
-        rec = out / data['recorders'][model]
-        if rec.exists() and f'{design}|{model}' in data['cells']:
-            tr = read_trajectory(om.CaseReader(str(rec)), design)
+        rec = out / data.recorders[model]
+        if rec.exists() and data.cell(design, model) is not None:
+            tr = read_trajectory(rec, design)
             if tr is not None:
                 curves.append((label, tr, style))
     if curves:
-        written.append(
-            plot_set(
-                figs / 'trajectories.png',
-                'Every topology at its own optimum (collocation)',
-                curves,
-                data['terms'],
-                corner_labels(out, data['config']),
-            )
-        )
+        title = 'Every topology at its own optimum (collocation)'
+        written.append(plot_set(figs / 'trajectories.png', title, curves, setting.layout))
     return written

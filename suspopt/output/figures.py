@@ -1,15 +1,19 @@
-"""Figure primitives shared by the reports (:mod:`suspopt.report`,
-:mod:`suspopt.compare_report`): trajectory panels of the chassis and every wheel, the road
-under every wheel (paper Figure 3), read from a results directory's study description."""
+"""Figure primitives shared by the reports: trajectory panels of the chassis and every
+wheel, the road under every wheel (paper Figure 3), and the setting they need, read from
+a results directory's study description."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from suspopt.errors import ConfigError
+from suspopt.models.layout import Corner, VehicleLayout, full_car, half_car
 from suspopt.output.rundir import atomic_path, resolve_inputs
+from suspopt.records.codec import Node
 from suspopt.records.trajectory import Trajectory
 
 CHASSIS = (
@@ -17,30 +21,42 @@ CHASSIS = (
     ('thdd_C', r'$\ddot\theta_C$ [rad/s$^2$]', 'chassis pitch acceleration'),
     ('phidd_C', r'$\ddot\varphi_C$ [rad/s$^2$]', 'chassis roll acceleration'),
 )
-AXLE_NAMES = {'1': 'front', '2': 'rear'}
+AXLE_NAMES = ('front', 'rear')
+#: the wheel displacement of every corner (collocation and time marching alike)
+WHEELS = 'wheel_z'
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One panel: the signal it shows (a chassis acceleration, or the wheels of ``axle``),
+    its y label and its title."""
+
+    signal: str
+    ylabel: str
+    title: str
+    axle: int | None = None
 
 
 def save_figure(fig: Any, path: str | Path, dpi: int = 110, **savefig: Any) -> Path:
-    """Write ``fig`` to ``path`` atomically (:func:`suspopt.results.atomic_path`): a run
-    stopped or failing while it writes never leaves a partial image. ``savefig``: further
-    arguments of Matplotlib's ``Figure.savefig``."""
+    """Write ``fig`` to ``path`` atomically (:func:`suspopt.output.rundir.atomic_path`): a
+    run stopped or failing while it writes never leaves a partial image. ``savefig``:
+    further arguments of Matplotlib's ``Figure.savefig``."""
     path = Path(path)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip('.') or 'png', **savefig)
     return path
 
 
-def panel_specs(terms: list[str]) -> list[tuple[str, str, str]]:
-    """(signal, y label, title) of every panel: chassis accelerations, then the wheels of
-    each axle (one panel per axle, its corners as curves)."""
-    roll = 'roll' in terms
-    out = [c for c in CHASSIS if roll or c[0] != 'phidd_C']
-    axles = sorted({t.split('_')[1][0] for t in terms if t.startswith('wheel_')})
-    out += [(f'wheel_{a}', r'$z_W$ [m]', f'{AXLE_NAMES[a]} wheel travel') for a in axles]
+def panel_specs(layout: VehicleLayout) -> list[Panel]:
+    """Every panel of a car: chassis accelerations, then the wheels of each axle (one
+    panel per axle, its corners as curves)."""
+    out = [Panel(*c) for c in CHASSIS if layout.has_roll or c[0] != 'phidd_C']
+    axles = sorted({c.axle for c in layout.corners})
+    out += [Panel(WHEELS, r'$z_W$ [m]', f'{AXLE_NAMES[a]} wheel travel', a) for a in axles]
     return out
 
 
-def panel_figure(title: str, panels):
+def panel_figure(title: str, panels: list[Panel]) -> tuple[Any, list[Any]]:
     import matplotlib
 
     matplotlib.use('Agg')
@@ -52,9 +68,9 @@ def panel_figure(title: str, panels):
         nrow, ncol, figsize=(11, 3.4 * nrow), sharex=True, constrained_layout=True, squeeze=False
     )
     fig.suptitle(title)
-    for ax, (_, ylabel, desc) in zip(axes.flat, panels):
-        ax.set_ylabel(ylabel)
-        ax.set_title(desc, fontsize=10)
+    for ax, panel in zip(axes.flat, panels):
+        ax.set_ylabel(panel.ylabel)
+        ax.set_title(panel.title, fontsize=10)
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
@@ -64,102 +80,115 @@ def panel_figure(title: str, panels):
 
 
 def plot_curves(
-    ax,
-    key: str,
-    tr_t,
+    ax: Any,
+    panel: Panel,
+    t: np.ndarray,
     values: dict[str, np.ndarray],
-    labels: list[str],
+    corners: tuple[Corner, ...],
     label: str,
-    style: dict,
+    style: dict[str, Any],
     marker: bool = False,
-):
-    if key.startswith('wheel_'):
-        axle = key.split('_')[1]
-        z = np.asarray(values['wheel_z'])
-        for c, lab in enumerate(labels):
-            if lab[0] == axle:
-                st = dict(
-                    style, ls=style.get('ls', '-') if len(lab) == 1 or lab.endswith('L') else ':'
-                )
-                kw = {'label': f'{label} ({lab})' if len(lab) > 1 else label}
-                if marker:
-                    ax.plot(
-                        tr_t[::3], z[::3, c], 'o', ms=2.2, alpha=0.7, color=style.get('color'), **kw
-                    )
-                else:
-                    ax.plot(tr_t, z[:, c], **st, **kw)
-    elif key in values:
+) -> None:
+    """The curves of one panel: its signal, or each wheel of its axle (the right wheel
+    dotted)."""
+    if panel.axle is not None:
+        z = np.asarray(values[WHEELS])
+        for c, corner in enumerate(corners):
+            if corner.axle != panel.axle:
+                continue
+            st = dict(style, ls=style.get('ls', '-') if corner.side >= 0 else ':')
+            kw = {'label': f'{label} ({corner.label})' if corner.side else label}
+            if marker:
+                ax.plot(t[::3], z[::3, c], 'o', ms=2.2, alpha=0.7, color=style.get('color'), **kw)
+            else:
+                ax.plot(t, z[:, c], **st, **kw)
+    elif panel.signal in values:
+        y = np.asarray(values[panel.signal])
         if marker:
-            ax.plot(
-                tr_t[::3],
-                np.asarray(values[key])[::3],
-                'o',
-                ms=2.2,
-                alpha=0.7,
-                color=style.get('color'),
-                label=label,
-            )
+            ax.plot(t[::3], y[::3], 'o', ms=2.2, alpha=0.7, color=style.get('color'), label=label)
         else:
-            ax.plot(tr_t, values[key], label=label, **style)
+            ax.plot(t, y, label=label, **style)
 
 
 def plot_set(
     path: Path,
     title: str,
-    curves: list[tuple[str, Trajectory, dict]],
-    terms: list[str],
-    labels: list[str],
+    curves: list[tuple[str, Trajectory, dict[str, Any]]],
+    layout: VehicleLayout,
 ) -> Path:
+    """One figure of every panel, each trajectory of ``curves`` (label, trajectory, style)."""
     import matplotlib.pyplot as plt
 
-    panels = panel_specs(terms)
+    panels = panel_specs(layout)
     fig, axes = panel_figure(title, panels)
     for label, tr, style in curves:
-        for ax, (key, _, _) in zip(axes, panels):
-            plot_curves(ax, key, tr.t, tr.values, labels, label, style)
+        for ax, panel in zip(axes, panels):
+            plot_curves(ax, panel, tr.t, tr.values, layout.corners, label, style)
     axes[0].legend(fontsize=8)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
 
-def setting(out: Path, config_dict: dict[str, Any]):
-    """The car's corners and the first scenario's roads, speed and horizon, from the
-    study description of a results directory (its kept input copies; not validated)."""
-    from suspopt.models.layout import full_car, half_car
+# ---------------------------------------------------------------------------- the setting
+@dataclass(frozen=True)
+class Setting:
+    """The car's corners and the first scenario's roads, speed and horizon, as a run used
+    them."""
+
+    layout: VehicleLayout
+    tracks: tuple[Any, ...]
+    speed: float
+    horizon: float
+    profile: str
+
+
+def read_setting(out: Path, config: dict[str, Any], file: str) -> Setting:
+    """The :class:`Setting` of the study description ``config`` of a results directory
+    (its kept input copies), read from ``file``: a damaged one is a ConfigError naming
+    the key."""
     from suspopt.road import road_tracks
 
-    cfg = resolve_inputs(out, config_dict)
-    v, man = cfg['vehicle'], cfg['maneuver']
-    a1, a2 = float(v['front']['axle_position']), float(v['rear']['axle_position'])
-    lay = (
-        full_car(a1, a2, float(v['front']['track']), float(v['rear']['track']))
-        if v['model'] == 'full_car'
-        else half_car(a1, a2)
-    )
-    sc = (cfg.get('scenario') or [{}])[0]
-    road = sc.get('road') or cfg['road']
-    return (
-        lay,
-        road_tracks(road, lay.n_tracks, lay.track_separation()),
-        float(sc.get('speed') or man['speed']),
-        float(sc.get('horizon') or man['horizon']),
-        road.get('profile'),
+    cfg = Node(resolve_inputs(out, config), file, 'config')
+    v, man = cfg.get('vehicle'), cfg.get('maneuver')
+    front, rear = v.get('front'), v.get('rear')
+    a1, a2 = front.get('axle_position').number(), rear.get('axle_position').number()
+    if v.get('model').text() == 'full_car':
+        lay = full_car(a1, a2, front.get('track').number(), rear.get('track').number())
+    else:
+        lay = half_car(a1, a2)
+    scenarios = cfg.opt('scenario')
+    sc = scenarios.items()[0] if scenarios is not None and scenarios.items() else None
+    road = (sc.opt('road') if sc is not None else None) or cfg.get('road')
+    speed = (sc.opt('speed') if sc is not None else None) or man.get('speed')
+    horizon = (sc.opt('horizon') if sc is not None else None) or man.get('horizon')
+    road.object()
+    try:
+        tracks = road_tracks(road.value, lay.n_tracks, lay.track_separation())
+    except ConfigError:
+        raise
+    except (TypeError, ValueError, KeyError, AttributeError) as err:
+        raise road.error(
+            f'not a road this suspopt can build ({type(err).__name__}: {err})'
+        ) from None
+    profile = road.opt('profile')
+    return Setting(
+        lay, tracks, speed.number(), horizon.number(), '' if profile is None else profile.text()
     )
 
 
-def road_figure(path: Path, out: Path, config_dict: dict[str, Any]) -> Path:
+def road_figure(path: Path, setting: Setting) -> Path:
     """Road displacement under every wheel over the horizon (paper Figure 3)."""
     import matplotlib
 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    lay, tracks, speed, horizon, profile = setting(out, config_dict)
-    t = np.linspace(0.0, horizon, 2001)
+    lay, speed = setting.layout, setting.speed
+    t = np.linspace(0.0, setting.horizon, 2001)
     fig, ax = plt.subplots(figsize=(8, 3.5), constrained_layout=True)
-    for c, (corner, off) in enumerate(zip(lay.corners, lay.offsets())):
-        h = tracks[corner.track].r(speed * t - off)
+    for corner, off in zip(lay.corners, lay.offsets()):
+        h = setting.tracks[corner.track].r(speed * t - off)
         ax.plot(
             t,
             h * 1e3,
@@ -168,13 +197,9 @@ def road_figure(path: Path, out: Path, config_dict: dict[str, Any]) -> Path:
         )
     ax.set_xlabel('time t [s]')
     ax.set_ylabel('road displacement [mm]')
-    ax.set_title(f'Road input ({profile}, v = {speed:g} m/s) — paper Fig. 3')
+    ax.set_title(f'Road input ({setting.profile}, v = {speed:g} m/s) — paper Fig. 3')
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
-
-
-def corner_labels(out: Path, config_dict: dict[str, Any]) -> list[str]:
-    return list(setting(out, config_dict)[0].labels)

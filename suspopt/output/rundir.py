@@ -6,10 +6,10 @@
   file, a second run is refused at once), ``--overwrite`` clears what a run writes before
   it starts, and the inputs it used (road CSV files, mechanism files) are copied in so a
   report never reads the user's original files;
-* :func:`read_trajectory` — a trajectory recorded by OpenMDAO's case recorder;
-* :func:`result_record` — the plain record of one optimization or evaluation (what
-  ``result.json``, a study step, a Pareto point or a sweep task holds), with its
-  time-marching verification (or the statement that it was skipped).
+* :func:`write_record` / :func:`read_record` — a run's typed record (:mod:`suspopt.records`)
+  in its file, with ``manifest.json`` naming its kind and format; reading validates it (a
+  damaged file is a ConfigError naming the file and the key);
+* :func:`read_trajectory` — a trajectory recorded by OpenMDAO's case recorder.
 """
 
 from __future__ import annotations
@@ -21,20 +21,19 @@ import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, overload
 
 import numpy as np
 
 from suspopt.errors import ConfigError, RunError
+from suspopt.records.codec import Record, read_document
+from suspopt.records.manifest import DOCUMENTS, MANIFEST, Manifest
 from suspopt.records.trajectory import Trajectory
 
 #: files and folders a run may write into its directory (cleared by ``--overwrite``)
 RUN_OUTPUTS = (
-    'result.json',
-    'study.json',
-    'pareto.json',
-    'compare.json',
-    'coupling.json',
+    MANIFEST,
+    *(file for _, file in DOCUMENTS.values()),
     'table.md',
     'cases.sql',
     'low.sql',
@@ -47,27 +46,6 @@ RUN_OUTPUTS = (
     'tasks',
 )
 LOCK = '.suspopt.lock'
-#: the designs of the two-step study, as recorded (study.json, case labels)
-STUDY_DESIGNS = ('initial', 'low_optimum', 'mixed_optimum')
-#: the three models of ``suspopt coupling`` (suspopt.coupling), the four designs and the model
-#: whose optimum each is (initial: none)
-COUPLING_MODEL_LABELS = {
-    'low': 'half car',
-    'ground': 'multibody, ground mount (paper)',
-    'chassis': 'multibody, chassis mount',
-}
-COUPLING_DESIGNS = {
-    'initial': None,
-    'low_optimum': 'low',
-    'ground_optimum': 'ground',
-    'chassis_optimum': 'chassis',
-}
-COUPLING_DESIGN_LABELS = {
-    'initial': 'Initial guess',
-    'low_optimum': 'Low-fidelity optimum',
-    'ground_optimum': 'Paper-coupling optimum (ground mount)',
-    'chassis_optimum': 'Consistent-coupling optimum (chassis mount)',
-}
 
 
 def _json_default(obj: Any) -> Any:
@@ -145,6 +123,64 @@ def read_json(path: str | Path) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise ConfigError(f'{path}: damaged results file (not a JSON object)')
     return data
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version('suspopt')
+    except PackageNotFoundError:  # pragma: no cover - not installed
+        return ''
+
+
+def write_record(directory: str | Path, record: Record) -> Path:
+    """Write a document record atomically to its file in ``directory`` (the kind's,
+    :data:`~suspopt.records.manifest.DOCUMENTS`), and the manifest naming it (first).
+    Returns the record's path."""
+    d = Path(directory)
+    manifest = Manifest.of(record, _version())
+    path = d / MANIFEST
+    try:
+        same = json.loads(path.read_text()) == manifest.to_json()
+    except (OSError, ValueError):
+        same = False
+    if not same:
+        write_json(path, manifest.to_json())
+    write_json(d / manifest.record, record.to_json())
+    return d / manifest.record
+
+
+def read_manifest(directory: str | Path) -> Manifest:
+    """The manifest of a run directory (a ConfigError if there is none or it is damaged)."""
+    d = Path(directory)
+    if not d.is_dir():
+        raise ConfigError(f'{d}: not a directory')
+    path = d / MANIFEST
+    if not path.exists():
+        raise ConfigError(
+            f'{d}: no {MANIFEST}: not a suspopt results directory, or one written by an '
+            'older suspopt (run it again to render it)'
+        )
+    return Manifest.from_json(read_json(path), str(path))
+
+
+R = TypeVar('R', bound=Record)
+
+
+@overload
+def read_record(directory: str | Path) -> Record: ...
+@overload
+def read_record(directory: str | Path, kind: type[R]) -> R: ...
+def read_record(directory: str | Path, kind: type[Record] | None = None) -> Record:
+    """The record of a run directory, of the kind its manifest names (``kind``: the record
+    type expected, a ConfigError if the directory holds another), validated."""
+    manifest = read_manifest(directory)
+    cls = manifest.record_type
+    if kind is not None and cls is not kind:
+        raise ConfigError(f'{directory}: a {manifest.kind} run, not a {kind.KIND} run ({MANIFEST})')
+    path = Path(directory) / manifest.record
+    return read_document(cls, read_json(path), str(path))
 
 
 class RunDirectory:

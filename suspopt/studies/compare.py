@@ -1,4 +1,4 @@
-"""The topology study (issue 12): the same car with different suspension linkages.
+"""The topology study: the same car with different suspension linkages.
 
 The paper argues for a multibody suspension because a mass-spring-damper "will not
 capture the behavioural differences between different types of suspension designs, e.g.,
@@ -17,13 +17,14 @@ a double-wishbone design vs. a MacPherson design". :func:`run_compare` measures 
 Everything goes to a results directory as it goes: ``compare.json`` (atomic, after every
 step and cell), the case recorders ``low.sql`` and ``mixed_<topology>.sql`` (the
 trajectory of every cell, as case ``<design key>``), and at the end ``table.md`` and
-``figures/`` (:mod:`suspopt.compare_report`; ``suspopt report DIR`` re-renders them from
+``figures/`` (:mod:`suspopt.output.compare_report`; ``suspopt report DIR`` re-renders them from
 the directory alone). A failed optimization or cell is kept with ``success: false`` and
 the study goes on with the others; only a failed low-fidelity step stops it (every
 topology starts from its optimum).
 
 Design keys: ``initial``, ``low_optimum`` and ``optimum:<topology>``; model keys: ``low``
-and ``mixed:<topology>``; a cell is ``cells["<design>|<model>"]``.
+and ``mixed:<topology>``; a cell is ``cells["<design>|<model>"]``
+(:mod:`suspopt.records.compare`).
 """
 
 from __future__ import annotations
@@ -32,37 +33,48 @@ import re
 import shutil
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from suspopt.errors import ConfigError, ModelError, RunError
-from suspopt.output.rundir import RunDirectory, write_json
+from suspopt.models.design import SPRING, design_id
+from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.records.compare import (
+    LOW,
+    CompareStudy,
+    Failure,
+    Kinematics,
+    MechanismCurves,
+    ModelBest,
+    Topology,
+    cell_key,
+    design_key,
+    model_key,
+)
+from suspopt.records.solve import SolveRecord, model_failure
 from suspopt.spec.load import config_from_dict
 from suspopt.spec.schema import StudyConfig
-from suspopt.studies.run import Interrupted, Progress, StepFailed, evaluate, optimize
+from suspopt.studies.run import (
+    Guess,
+    Interrupted,
+    Progress,
+    StepFailed,
+    evaluate,
+    optimize,
+    problem_stats,
+)
 from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
-from suspopt.verification.verify import VERIFY_TOLERANCE, verified
+from suspopt.verification.verify import VERIFY_TOLERANCE
 
 #: the shipped topologies, in the order the paper names them (and the SLA variation)
 DEFAULT_MECHANISMS = ('double_wishbone', 'sla_double_wishbone', 'macpherson')
-LOW = 'low'
 #: points of the kinematic curves
 KINEMATIC_POINTS = 41
-
-
-def design_key(topology: str) -> str:
-    return f'optimum:{topology}'
-
-
-def model_key(topology: str) -> str:
-    return f'mixed:{topology}'
-
-
-def cell_key(design: str, model: str) -> str:
-    return f'{design}|{model}'
+#: the spring rate of the kinematic curves' wheel rate when the design has none [N/m]
+DEFAULT_SPRING_RATE = 30000.0
 
 
 def _safe(label: str) -> str:
@@ -146,32 +158,42 @@ def common_travel(mechanisms: list) -> tuple[float, float]:
     return lo, hi
 
 
-def kinematics_record(mechanisms: dict[str, str], spring_rate: float) -> dict[str, Any]:
-    """Kinematic curves of every mechanism (label → file) on the common travel range, as
-    plain lists, with the reference-pose values (travel 0) picked out."""
+def kinematics_record(mechanisms: dict[str, str], spring_rate: float) -> Kinematics:
+    """Kinematic curves of every mechanism (label → file) on the common travel range,
+    with the reference-pose values (travel 0) picked out."""
     from suspopt.multibody.kinematics import kinematic_curves
     from suspopt.multibody.mechanism import load_mechanism
 
     mechs = {lab: load_mechanism(src, suspension=True) for lab, src in mechanisms.items()}
     travel = common_travel(list(mechs.values()))
-    out: dict[str, Any] = {
-        'travel_range': list(travel),
-        'spring_rate': spring_rate,
-        'points': KINEMATIC_POINTS,
-        'curves': {},
-    }
+    curves = {}
     for lab, mech in mechs.items():
         c = kinematic_curves(mech, travel, spring_rate, KINEMATIC_POINTS)
-        curves = {
-            k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in c.items()
-        }
         w = np.asarray(c['travel'])
-        curves['at_reference'] = {
-            k: float(np.interp(0.0, w, c[k])) for k in ('motion_ratio', 'wheel_rate')
+        arrays = {
+            k: tuple(float(x) for x in np.asarray(c[k]))
+            for k in (
+                'travel',
+                'independent',
+                'spring_deflection',
+                'motion_ratio',
+                'wheel_rate',
+                'camber',
+                'track_change',
+            )
         }
-        curves['moving_mass_kg'] = float(sum(b.mass for b in mech.bodies if not b.fixed))
-        out['curves'][lab] = curves
-    return out
+        curves[lab] = MechanismCurves(
+            name=str(c['name']),
+            spring_rate=float(c['spring_rate']),
+            **arrays,
+            at_reference={
+                k: float(np.interp(0.0, w, c[k])) for k in ('motion_ratio', 'wheel_rate')
+            },
+            moving_mass_kg=float(sum(b.mass for b in mech.bodies if not b.fixed)),
+        )
+    return Kinematics(
+        travel_range=travel, spring_rate=spring_rate, points=KINEMATIC_POINTS, curves=curves
+    )
 
 
 def _copy_mechanisms(out: Path, topologies: list[tuple[str, str]]) -> dict[str, str]:
@@ -194,36 +216,6 @@ def _copy_mechanisms(out: Path, topologies: list[tuple[str, str]]) -> dict[str, 
     return copies
 
 
-def _strip(record: dict[str, Any]) -> dict[str, Any]:
-    """A cell's record without the per-iteration history (kept for the optimizations)."""
-    v = record.get('verification') or {}
-    v.pop('trajectories', None)
-    if record.get('mode') == 'evaluate':
-        record.pop('history', None)
-    return record
-
-
-def _failed_record(
-    fid: str, mode: str, design: dict[str, float], err: Exception, config: StudyConfig
-) -> dict[str, Any]:
-    return {
-        'fidelity': fid,
-        'mode': mode,
-        'method': 'collocation',
-        'design': design,
-        'start': design,
-        'objective': None,
-        'terms': None,
-        'success': False,
-        'status': 'Model_Error',
-        'message': str(err),
-        'iterations': 0,
-        'verified': None,
-        'verification': {'verified': None, 'note': 'not verified: the model failed'},
-        'normalization': config.objective.normalization,
-    }
-
-
 def run_compare(
     config: StudyConfig,
     out_dir: str | Path | RunDirectory,
@@ -232,277 +224,309 @@ def run_compare(
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
     verify: bool = True,
-) -> dict[str, Any]:
+) -> CompareStudy:
     """The topology study (see the module docstring), written to ``out_dir`` as it goes.
 
     ``mechanisms``: topologies as for :func:`parse_topologies`. ``config`` gives the car
     (half or full), road, grid, design space and objective; its own mechanisms are
-    replaced by each topology's. Returns the ``compare.json`` dictionary; ``failures``
-    lists what did not converge or failed, ``verified`` is False if a cell's collocation
-    and time marching disagree (None with ``verify=False``). Raises
-    :class:`~suspopt.study.StepFailed` if the low-fidelity optimization fails and
+    replaced by each topology's. Returns the study's record; ``failures`` lists what did
+    not converge or failed, ``verified`` is False if a cell's collocation and time
+    marching disagree (None with ``verify=False``). Raises
+    :class:`~suspopt.studies.run.StepFailed` if the low-fidelity optimization fails and
     KeyboardInterrupt (after saving, ``interrupted: true``) on an interrupt."""
-    import suspopt.output.compare_report as compare_report  # matplotlib only when figures are drawn
-
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    say = log or (lambda msg: None)
-    t_start = time.perf_counter()
-    topologies = parse_topologies(mechanisms)
-    labels = topology_labels(topologies)
-    cfgs = {lab: topology_config(config, f, r) for lab, (f, r) in zip(labels, topologies)}
-    copies = _copy_mechanisms(out, topologies)
-    config_dict = (
-        out_dir.keep_inputs(config.to_dict())
-        if isinstance(out_dir, RunDirectory)
-        else config.to_dict()
+    return CompareRun(config, out, parse_topologies(mechanisms), progress, log, verify).run()
+
+
+def _summary_line(res: SolveRecord) -> str:
+    """A solve in one line, for the progress log."""
+    if not res.success:
+        return f'FAILED ({res.status})'
+    c = res.verification.comparison
+    check = (
+        ''
+        if c is None
+        else f', time marching {100 * c.max_rel_diff:.3g} % off: '
+        + ('verified' if c.agrees else 'NOT verified')
     )
-    scales = resolve_scales(config)  # the low-fidelity model's: no linkage, one for all
-    models = [LOW] + [model_key(lab) for lab in labels]
-    designs_order = ['initial', 'low_optimum'] + [design_key(lab) for lab in labels]
-    data: dict[str, Any] = {
-        'kind': 'compare',
-        'config': config_dict,
-        'vehicle_model': config.vehicle.model,
-        'topologies': [
-            {
-                'label': lab,
-                'front': copies[f],
-                'rear': copies[r],
-                'front_label': mechanism_label(f),
-                'rear_label': mechanism_label(r),
-                'model': model_key(lab),
-                'optimum': design_key(lab),
-                'recorder': f'mixed_{lab}.sql',
-            }
-            for lab, (f, r) in zip(labels, topologies)
-        ],
-        'models': models,
-        'design_order': designs_order,
-        'recorders': {LOW: 'low.sql', **{model_key(lab): f'mixed_{lab}.sql' for lab in labels}},
-        'scales': list(scales),
-        'terms': list(config.terms()),
-        'design_names': list(config.design_names()),
-        'normalization': config.objective.normalization,
-        'weights': dict(config.objective.weights),
-        'verify': verify,
-        'tolerance': VERIFY_TOLERANCE,
-        'steps': {},
-        'designs': {'initial': config.design.initial()},
-        'cells': {},
-        'failures': [],
-        'complete': False,
-        'interrupted': False,
-    }
-    save = lambda: write_json(out / 'compare.json', data)  # noqa: E731
-    save()
-    mech_files = {
-        mechanism_label(m): m if copies[m] == m else str(out / copies[m])
-        for t in topologies
-        for m in t
-    }
-    k0 = next((v for n, v in config.design.initial().items() if n.startswith('k_S')), None)
-    data['kinematics'] = kinematics_record(mech_files, float(k0) if k0 else 30000.0)
-    save()
-    problems: dict[str, VehicleProblem] = {}
-    n_steps = 1 + len(labels)
+    return f'f = {res.objective:.6f}, {res.iterations} iterations{check}'
 
-    def keep(design: str, model: str, record: dict[str, Any]) -> dict[str, Any]:
-        data['cells'][cell_key(design, model)] = _strip(record)
-        if not record.get('success'):
-            data['failures'].append(
-                {
-                    'what': 'evaluation',
-                    'design': design,
-                    'model': model,
-                    'status': record.get('status'),
-                    'message': record.get('message', ''),
-                }
+
+class CompareRun:
+    """One run of :func:`run_compare`: its record, the topologies' study descriptions and
+    the problems of every model."""
+
+    def __init__(
+        self,
+        config: StudyConfig,
+        out: Path,
+        topologies: list[tuple[str, str]],
+        progress: Progress | None,
+        log: Callable[[str], None] | None,
+        verify: bool,
+    ):
+        self.config, self.out, self.progress, self.verify = config, out, progress, verify
+        self.say = log or (lambda msg: None)
+        self.t_start = time.perf_counter()
+        self.labels = topology_labels(topologies)
+        cfgs = {lab: topology_config(config, f, r) for lab, (f, r) in zip(self.labels, topologies)}
+        #: model key → (fidelity, study description)
+        self.models: dict[str, tuple[str, StudyConfig]] = {LOW: ('low', config)}
+        self.models.update({model_key(lab): ('mixed', cfgs[lab]) for lab in self.labels})
+        copies = _copy_mechanisms(out, topologies)
+        self.scales = resolve_scales(config)  # the low-fidelity model's: one for all
+        self.problems: dict[str, VehicleProblem] = {}
+        self.low_guess: Guess = 'auto'
+        self.study = CompareStudy(
+            config=keep_inputs(out, config.to_dict()),
+            vehicle_model=config.vehicle.model,
+            topologies=tuple(
+                Topology(
+                    label=lab,
+                    front=copies[f],
+                    rear=copies[r],
+                    front_label=mechanism_label(f),
+                    rear_label=mechanism_label(r),
+                    model=model_key(lab),
+                    optimum=design_key(lab),
+                    recorder=f'mixed_{lab}.sql',
+                )
+                for lab, (f, r) in zip(self.labels, topologies)
+            ),
+            models=tuple(self.models),
+            design_order=('initial', 'low_optimum', *(design_key(lab) for lab in self.labels)),
+            recorders={
+                LOW: 'low.sql',
+                **{model_key(lab): f'mixed_{lab}.sql' for lab in self.labels},
+            },
+            scales=tuple(self.scales),
+            terms=tuple(config.terms()),
+            design_names=tuple(config.design_names()),
+            normalization=config.objective.normalization,
+            weights=dict(config.objective.weights),
+            tolerance=VERIFY_TOLERANCE,
+            verify=verify,
+            designs={'initial': config.design.initial()},
+        )
+        self.mechanism_files = {
+            mechanism_label(m): m if copies[m] == m else str(out / copies[m])
+            for t in topologies
+            for m in t
+        }
+
+    def save(self) -> None:
+        write_record(self.out, self.study)
+
+    def run(self) -> CompareStudy:
+        import suspopt.output.compare_report as compare_report  # matplotlib: at the end
+
+        self.save()
+        springs = [
+            v for n, v in self.config.design.initial().items() if design_id(n).kind is SPRING
+        ]
+        k0 = float(springs[0]) if springs and springs[0] else DEFAULT_SPRING_RATE
+        self.study.kinematics = kinematics_record(self.mechanism_files, k0)
+        self.save()
+        try:
+            self._low()
+            for i, lab in enumerate(self.labels):
+                self._topology(i, lab)
+            self._cross()
+            self.study.problems = {m: problem_stats(p) for m, p in self.problems.items()}
+        except KeyboardInterrupt:
+            self.study.interrupted = True
+            self.study.wall_time_s = time.perf_counter() - self.t_start
+            self.save()
+            raise
+        finally:
+            for p in self.problems.values():
+                p.cleanup()
+        finish(self.study)
+        if self.study.warnings:
+            self.say(f'warning: {self.study.warnings[-1]}')
+        self.study.wall_time_s = time.perf_counter() - self.t_start
+        self.study.complete = True
+        self.save()
+        self.say('writing table and figures')
+        compare_report.render_compare(self.out, self.study, str(self.out / 'compare.json'))
+        return self.study
+
+    def _build(self, model: str, recorder: str) -> None:
+        fid, cfg = self.models[model]
+        self.problems[model] = VehicleProblem(
+            cfg, fid, self.scales, recorder=self.out / recorder, progress=self.progress
+        )
+
+    def _low(self) -> None:
+        """The low-fidelity model: the initial design, then its optimum from there."""
+        n = 1 + len(self.labels)
+        self.say(
+            f'1/{n} low-fidelity model ({self.config.vehicle.model}, no linkage): the initial '
+            'design, then its optimum from there'
+        )
+        self._build(LOW, 'low.sql')
+        self._cell('initial', LOW)
+        low = self._optimize(LOW, 'initial', 'low_optimum', 'keep')
+        self.say(f'   low-fidelity optimum: {_summary_line(low)}')
+        if not low.success:
+            raise StepFailed('low', low)
+        low_problem = self.problems[LOW]
+        self.low_guess = [low_problem.timeseries(s) for s in range(len(low_problem.scenarios))]
+
+    def _topology(self, i: int, lab: str) -> None:
+        """Topology ``lab``: the low-fidelity optimum in its model, then its optimum from
+        there (from the half car's time marching if that failed)."""
+        model, n = model_key(lab), 1 + len(self.labels)
+        self.say(
+            f'{i + 2}/{n} mixed-fidelity model, {lab}: the low-fidelity optimum, '
+            'then its optimum from there'
+        )
+        self._build(model, f'mixed_{lab}.sql')
+        start = self._cell('low_optimum', model, guess=self.low_guess)
+        guess: Guess = 'keep'
+        if not start.success:
+            self.say(
+                f'   {lab}: the low-fidelity optimum failed in this model '
+                f"({start.status}); optimizing from the half car's time marching"
             )
-        save()
-        return record
+            guess = 'auto'
+        res = self._optimize(model, 'low_optimum', design_key(lab), guess)
+        self.say(f'   {lab} optimum: {_summary_line(res)}')
 
-    def cell(design: str, model: str, fid: str, cfg: StudyConfig, guess='auto'):
+    def _cross(self) -> None:
+        """Every design that exists in every model (those not evaluated yet)."""
+        study = self.study
+        todo = [
+            (d, m)
+            for m in study.models
+            for d in study.design_order
+            if d in study.designs and cell_key(d, m) not in study.cells
+        ]
+        for j, (d, m) in enumerate(todo):
+            rec = self._cell(d, m)
+            self.say(f'cross-evaluation {j + 1}/{len(todo)}: {d} in {m}: {_summary_line(rec)}')
+
+    def _cell(self, design: str, model: str, guess: Guess = 'auto') -> SolveRecord:
+        """Design ``design`` evaluated in ``model``, kept (a failed one as a failure)."""
+        fid, cfg = self.models[model]
+        x = self.study.designs[design]
         try:
             rec = evaluate(
                 cfg,
                 fid,
-                data['designs'][design],
-                scales=scales,
-                problem=problems[model],
+                x,
+                scales=self.scales,
+                problem=self.problems[model],
                 label=design,
                 guess=guess,
-                verify=verify,
+                verify=self.verify,
             )
         except ModelError as err:
-            rec = _failed_record(fid, 'evaluate', data['designs'][design], err, cfg)
+            norm = cfg.objective.normalization
+            rec = model_failure(fid, 'evaluate', x, err, normalization=norm)
         except Interrupted as stop:  # kept if IPOPT had converged (then unchecked)
-            if stop.result and stop.result.get('success'):
-                keep(design, model, stop.result)
+            if stop.result is not None and stop.result.success:
+                self._keep_cell(design, model, stop.result)
             raise
-        return keep(design, model, rec)
+        return self._keep_cell(design, model, rec)
 
-    def opt(model: str, fid: str, cfg: StudyConfig, start: str, result: str, guess='keep'):
+    def _keep_cell(self, design: str, model: str, record: SolveRecord) -> SolveRecord:
+        if record.mode == 'evaluate':  # the per-iteration history: kept for optimizations
+            record = replace(record, history=())
+        self.study.cells[cell_key(design, model)] = record
+        if not record.success:
+            self.study.failures.append(
+                Failure('evaluation', model, record.status, record.message, design)
+            )
+        self.save()
+        return record
+
+    def _optimize(self, model: str, start: str, result: str, guess: Guess) -> SolveRecord:
         """Optimize ``model`` from design ``start`` (with ``guess='keep'`` from the
         collocation solution of its cell, just solved on the same problem)."""
+        fid, cfg = self.models[model]
+        study = self.study
         try:
             res = optimize(
                 cfg,
                 fid,
-                start=data['designs'][start],
-                scales=scales,
-                problem=problems[model],
+                start=study.designs[start],
+                scales=self.scales,
+                problem=self.problems[model],
                 guess=guess,
                 label=result,
-                verify=verify,
+                verify=self.verify,
             )
         except ModelError as err:
-            res = _failed_record(fid, 'optimize', data['designs'][start], err, cfg)
+            norm = cfg.objective.normalization
+            res = model_failure(fid, 'optimize', study.designs[start], err, normalization=norm)
         except Interrupted as stop:  # a converged optimum is kept (then unchecked)
-            if stop.result and stop.result.get('success'):
-                data['steps'][model] = stop.result
-                data['designs'][result] = stop.result['design']
-                data['cells'][cell_key(result, model)] = stop.result
-                save()
+            if stop.result is not None and stop.result.success:
+                self._keep_optimum(model, result, stop.result)
             raise
-        data['steps'][model] = _strip(res)
-        if res['success']:
-            data['designs'][result] = res['design']
-            data['cells'][cell_key(result, model)] = res
+        if res.success:
+            self._keep_optimum(model, result, res)
         else:
-            data['failures'].append(
-                {
-                    'what': 'optimization',
-                    'model': model,
-                    'status': res.get('status'),
-                    'message': res.get('message', ''),
-                }
-            )
-        save()
+            study.steps[model] = res
+            study.failures.append(Failure('optimization', model, res.status, res.message))
+            self.save()
         return res
 
-    def summary(res: dict[str, Any]) -> str:
-        if not res['success']:
-            return f'FAILED ({res["status"]})'
-        v = res.get('verification') or {}
-        check = (
-            ''
-            if 'max_rel_diff' not in v
-            else f', time marching {100 * v["max_rel_diff"]:.3g} % off: '
-            + ('verified' if v['verified'] else 'NOT verified')
-        )
-        return f'f = {res["objective"]:.6f}, {res["iterations"]} iterations{check}'
-
-    try:
-        say(
-            f'1/{n_steps} low-fidelity model ({config.vehicle.model}, no linkage): the initial '
-            'design, then its optimum from there'
-        )
-        problems[LOW] = VehicleProblem(
-            config, 'low', scales, recorder=out / 'low.sql', progress=progress
-        )
-        cell('initial', LOW, 'low', config)
-        low = opt(LOW, 'low', config, 'initial', 'low_optimum')
-        say(f'   low-fidelity optimum: {summary(low)}')
-        if not low['success']:
-            raise StepFailed('low', low)
-        low_guess = [problems[LOW].timeseries(i) for i in range(len(problems[LOW].scenarios))]
-        for i, lab in enumerate(labels):
-            model = model_key(lab)
-            say(
-                f'{i + 2}/{n_steps} mixed-fidelity model, {lab}: the low-fidelity optimum, '
-                'then its optimum from there'
-            )
-            problems[model] = VehicleProblem(
-                cfgs[lab], 'mixed', scales, recorder=out / f'mixed_{lab}.sql', progress=progress
-            )
-            start = cell('low_optimum', model, 'mixed', cfgs[lab], guess=low_guess)
-            guess = 'keep'
-            if not start['success']:
-                say(
-                    f'   {lab}: the low-fidelity optimum failed in this model '
-                    f"({start['status']}); optimizing from the half car's time marching"
-                )
-                guess = 'auto'
-            res = opt(model, 'mixed', cfgs[lab], 'low_optimum', design_key(lab), guess)
-            say(f'   {lab} optimum: {summary(res)}')
-        todo = [
-            (d, m)
-            for m in models
-            for d in designs_order
-            if d in data['designs'] and cell_key(d, m) not in data['cells']
-        ]
-        for j, (d, m) in enumerate(todo):
-            fid, cfg = ('low', config) if m == LOW else ('mixed', cfgs[m.split(':', 1)[1]])
-            rec = cell(d, m, fid, cfg)
-            say(f'cross-evaluation {j + 1}/{len(todo)}: {d} in {m}: {summary(rec)}')
-        data['problems'] = {m: p.stats() for m, p in problems.items()}
-    except KeyboardInterrupt:
-        data['interrupted'] = True
-        data['wall_time_s'] = time.perf_counter() - t_start
-        save()
-        raise
-    finally:
-        for p in problems.values():
-            p.cleanup()
-    finish(data)
-    if data['warnings']:
-        say(f'warning: {data["warnings"][-1]}')
-    data['wall_time_s'] = time.perf_counter() - t_start
-    data['complete'] = True
-    save()
-    say('writing table and figures')
-    compare_report.render_compare(out)
-    return data
+    def _keep_optimum(self, model: str, result: str, res: SolveRecord) -> None:
+        self.study.steps[model] = res
+        self.study.designs[result] = res.design
+        self.study.cells[cell_key(result, model)] = res
+        self.save()
 
 
-def finish(data: dict[str, Any]) -> dict[str, Any]:
+def finish(study: CompareStudy) -> CompareStudy:
     """The verdicts of a finished study, from its cells: ``best`` (:func:`best_designs`),
     ``warnings`` (the cells whose collocation and time marching disagree) and ``verified``
     (None when verification was skipped)."""
-    data['best'] = best_designs(data)
-    unverified = [k for k, c in data['cells'].items() if verified(c) is False]
-    data['warnings'] = []
-    if unverified:
-        worst = max(unverified, key=lambda k: data['cells'][k]['verification']['max_rel_diff'])
-        v = data['cells'][worst]['verification']
-        data['warnings'].append(
-            f'not verified: {len(unverified)} of {len(data["cells"])} cells; worst '
-            f'{worst}: collocation and time marching differ by {100 * v["max_rel_diff"]:.2g} % '
-            f'on {v["scenarios"][0]["worst_term"]} (tolerance {100 * data["tolerance"]:g} %): '
+    study.best = best_designs(study)
+    compared = {k: c.verification.comparison for k, c in study.cells.items() if c.verified is False}
+    study.warnings = []
+    if compared:
+        worst, v = max(compared.items(), key=lambda kv: kv[1].max_rel_diff if kv[1] else 0.0)
+        assert v is not None
+        study.warnings.append(
+            f'not verified: {len(compared)} of {len(study.cells)} cells; worst '
+            f'{worst}: collocation and time marching differ by {100 * v.max_rel_diff:.2g} % '
+            f'on {v.scenarios[0].worst_term} (tolerance {100 * study.tolerance:g} %): '
             'the grid is too coarse for this car and road; more --segments'
         )
-    data['verified'] = None if not data.get('verify', True) else not unverified
-    return data
+    study.verified = None if not study.verify else not compared
+    return study
 
 
-def best_designs(data: dict[str, Any]) -> dict[str, Any]:
+def best_designs(study: CompareStudy) -> dict[str, ModelBest]:
     """Per model: the design with the lowest f among the converged cells, and each
     design's excess ``f / f_own - 1`` over the model's own optimum (None where missing)."""
     out = {}
-    own = {LOW: 'low_optimum', **{t['model']: t['optimum'] for t in data['topologies']}}
-    for m in data['models']:
+    for m in study.models:
         fs = {
-            d: c['objective']
-            for d in data['design_order']
-            for c in [data['cells'].get(cell_key(d, m))]
-            if c and c.get('success') and c.get('objective') is not None
+            d: c.objective
+            for d in study.design_order
+            for c in [study.cell(d, m)]
+            if c is not None and c.success and c.objective is not None
         }
-        f_own = fs.get(own[m])
-        out[m] = {
-            'best': min(fs, key=fs.get) if fs else None,
-            'own_optimum': own[m],
-            'f_own': f_own,
-            'excess': {d: (f / f_own - 1.0 if f_own else None) for d, f in fs.items()},
-        }
+        own = study.own_optimum(m)
+        f_own = fs.get(own)
+        out[m] = ModelBest(
+            best=min(fs, key=lambda d: fs[d]) if fs else None,
+            own_optimum=own,
+            f_own=f_own,
+            excess={d: (f / f_own - 1.0 if f_own else None) for d, f in fs.items()},
+        )
     return out
 
 
-def exit_code(data: dict[str, Any]) -> int:
+def exit_code(study: CompareStudy) -> int:
     """The command line's exit code of a topology study: 1 if something failed, 3 if a
     cell is not verified, else 0 (130 is the interrupt, handled by the caller)."""
-    if data.get('failures'):
+    if study.failures:
         return 1
-    if data.get('verified') is False:
+    if study.verified is False:
         return 3
     return 0

@@ -1,4 +1,4 @@
-"""How much the paper's coupling assumption moves the optimum (issue 16, beyond the paper).
+"""How much the paper's coupling assumption moves the optimum (beyond the paper).
 
 The paper's mixed-fidelity model fixes each multibody module's frame to the ground and
 gives the chassis the spring force only (``multibody.mount = "ground"``); in a car the
@@ -17,29 +17,24 @@ import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
-from suspopt.output.rundir import (
-    COUPLING_DESIGN_LABELS,
+from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.records.coupling import (
     COUPLING_DESIGNS,
     COUPLING_MODEL_LABELS,
-    RunDirectory,
-    write_json,
+    CouplingStudy,
+    CouplingSummary,
 )
+from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
-from suspopt.studies.run import Progress, StepFailed, evaluate, optimize
+from suspopt.studies.run import Progress, StepFailed, evaluate, optimize, problem_stats
 from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
-from suspopt.verification.verify import verified
 
 #: the three models: (fidelity, mount)
 MODELS = {'low': ('low', 'ground'), 'ground': ('mixed', 'ground'), 'chassis': ('mixed', 'chassis')}
-#: labels and the four designs (with the model whose optimum each is): see suspopt.results
-MODEL_LABELS, DESIGNS, DESIGN_LABELS = (
-    COUPLING_MODEL_LABELS,
-    COUPLING_DESIGNS,
-    COUPLING_DESIGN_LABELS,
-)
+#: each optimization: the model and the design it starts from
+STEPS = (('low', 'initial'), ('ground', 'low_optimum'), ('chassis', 'low_optimum'))
 
 
 def model_config(config: StudyConfig, model: str) -> StudyConfig:
@@ -54,130 +49,154 @@ def run_coupling(
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
     verify: bool = True,
-) -> dict[str, Any]:
+) -> CouplingStudy:
     """Both couplings' two-step studies and the 4 × 3 cross-evaluation (module docstring).
 
     Every optimization starts from the collocation solution of its starting design in its
     own model; both multibody optimizations start from the low-fidelity optimum. Returns
-    the ``coupling.json`` dictionary; a step whose IPOPT does not converge raises
-    :class:`~suspopt.study.StepFailed` after writing what was done."""
-    import suspopt.output.report as report
-
+    the study's record; a step whose IPOPT does not converge raises
+    :class:`~suspopt.studies.run.StepFailed` after writing what was done."""
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
-    say = log or (lambda msg: None)
-    t0 = time.perf_counter()
-    scales = resolve_scales(config)
-    config_dict = (
-        out_dir.keep_inputs(config.to_dict())
-        if isinstance(out_dir, RunDirectory)
-        else config.to_dict()
-    )
-    res: dict[str, Any] = {
-        'config': config_dict,
-        'scales': list(scales),
-        'terms': list(config.terms()),
-        'design_names': list(config.design_names()),
-        'models': dict(MODEL_LABELS),
-        'normalization': config.objective.normalization,
-        'designs': {},
-        'steps': {},
-        'evaluations': {m: {} for m in MODELS},
-        'verify': verify,
-        'complete': False,
-    }
-    save = lambda: write_json(out / 'coupling.json', res)  # noqa: E731
-    save()
-    configs = {m: model_config(config, m) for m in MODELS}
-    problems: dict[str, VehicleProblem] = {}
-    designs = res['designs']
-    designs['initial'] = config.design.initial()
-    try:
-        for m, (fid, _) in MODELS.items():
-            problems[m] = VehicleProblem(configs[m], fid, scales, progress=progress)
+    return CouplingRun(config, out, progress, log, verify).run()
 
-        def cell(model: str, design: str, guess='auto') -> dict[str, Any]:
-            fid = MODELS[model][0]
-            if design in res['evaluations'][model]:
-                return res['evaluations'][model][design]
-            say(f'evaluating the {design.replace("_", " ")} in the {MODEL_LABELS[model]} model')
-            rec = evaluate(
-                configs[model],
-                fid,
-                designs[design],
-                scales=scales,
-                problem=problems[model],
-                guess=guess,
-                verify=verify,
-            )
-            res['evaluations'][model][design] = rec
-            save()
-            return rec
 
-        for model, start in (
-            ('low', 'initial'),
-            ('ground', 'low_optimum'),
-            ('chassis', 'low_optimum'),
-        ):
-            fid = MODELS[model][0]
-            cell(model, start)
-            say(f'optimizing the {MODEL_LABELS[model]} model from the {start.replace("_", " ")}')
-            step = optimize(
-                configs[model],
-                fid,
-                start=designs[start],
-                scales=scales,
-                problem=problems[model],
-                guess='keep',
-                verify=verify,
-            )
-            res['steps'][model] = step
-            save()
-            if not step['success']:
-                raise StepFailed(f'{fid} ({MODELS[model][1]} mount)', step)
-            name = f'{model}_optimum'
-            designs[name] = step['design']
-            res['evaluations'][model][name] = dict(step, mode='optimize')
-            save()
-        for model in MODELS:
-            for design in DESIGNS:
-                cell(model, design)
+class CouplingRun:
+    """One run of :func:`run_coupling`: its record and the three models' problems."""
+
+    def __init__(
+        self,
+        config: StudyConfig,
+        out: Path,
+        progress: Progress | None,
+        log: Callable[[str], None] | None,
+        verify: bool,
+    ):
+        self.out, self.progress, self.verify = out, progress, verify
+        self.say = log or (lambda msg: None)
+        self.t0 = time.perf_counter()
+        self.scales = resolve_scales(config)
+        self.configs = {m: model_config(config, m) for m in MODELS}
+        self.problems: dict[str, VehicleProblem] = {}
+        self.study = CouplingStudy(
+            config=keep_inputs(out, config.to_dict()),
+            scales=tuple(self.scales),
+            terms=tuple(config.terms()),
+            design_names=tuple(config.design_names()),
+            bounds=config.design.bounds(),
+            normalization=config.objective.normalization,
+            weights=dict(config.objective.weights),
+            verify=verify,
+            designs={'initial': config.design.initial()},
+        )
+
+    def save(self) -> None:
+        write_record(self.out, self.study)
+
+    def run(self) -> CouplingStudy:
+        import suspopt.output.report as report
+
+        self.save()
+        try:
+            for m, (fid, _) in MODELS.items():
+                self.problems[m] = VehicleProblem(
+                    self.configs[m], fid, self.scales, progress=self.progress
+                )
+            for model, start in STEPS:
+                self._step(model, start)
+            for model in MODELS:
+                for design in COUPLING_DESIGNS:
+                    self._cell(model, design)
+            self._finish()
+            self.say('writing table and figure')
+            report.render(self.out)
+        finally:
+            for p in self.problems.values():
+                p.cleanup()
+        return self.study
+
+    def _cell(self, model: str, design: str) -> SolveRecord:
+        """Design ``design`` evaluated in ``model`` (once), kept."""
+        done = self.study.evaluation(model, design)
+        if done is not None:
+            return done
+        label = COUPLING_MODEL_LABELS[model]
+        self.say(f'evaluating the {design.replace("_", " ")} in the {label} model')
+        rec = evaluate(
+            self.configs[model],
+            MODELS[model][0],
+            self.study.designs[design],
+            scales=self.scales,
+            problem=self.problems[model],
+            verify=self.verify,
+        )
+        self.study.evaluations[model][design] = rec
+        self.save()
+        return rec
+
+    def _step(self, model: str, start: str) -> None:
+        """Optimize ``model`` from the collocation solution of design ``start`` in it."""
+        fid, mount = MODELS[model]
+        self._cell(model, start)
+        label = COUPLING_MODEL_LABELS[model]
+        self.say(f'optimizing the {label} model from the {start.replace("_", " ")}')
+        step = optimize(
+            self.configs[model],
+            fid,
+            start=self.study.designs[start],
+            scales=self.scales,
+            problem=self.problems[model],
+            guess='keep',
+            verify=self.verify,
+        )
+        self.study.steps[model] = step
+        self.save()
+        if not step.success:
+            raise StepFailed(f'{fid} ({mount} mount)', step)
+        name = f'{model}_optimum'
+        self.study.designs[name] = step.design
+        self.study.evaluations[model][name] = step
+        self.save()
+
+    def _finish(self) -> None:
+        study = self.study
         unverified = [
             f'{d} in {m}'
             for m in MODELS
-            for d, e in res['evaluations'][m].items()
-            if verified(e) is False
+            for d, e in study.evaluations[m].items()
+            if e.verified is False
         ]
-        res['verified'] = None if not verify else not unverified
+        study.verified = None if not self.verify else not unverified
         if unverified:
-            res['warnings'] = [f'not verified by time marching: {", ".join(unverified)}']
-        res['summary'] = summary(res)
-        res['problems'] = {m: p.stats() for m, p in problems.items()}
-        res['wall_time_s'] = time.perf_counter() - t0
-        res['complete'] = True
-        save()
-        say('writing table and figure')
-        report.render_coupling(out)
-    finally:
-        for p in problems.values():
-            p.cleanup()
-    return res
+            study.warnings = [f'not verified by time marching: {", ".join(unverified)}']
+        study.summary = summary(study)
+        study.problems = {m: problem_stats(p) for m, p in self.problems.items()}
+        study.wall_time_s = time.perf_counter() - self.t0
+        study.complete = True
+        self.save()
 
 
-def summary(res: dict[str, Any]) -> dict[str, Any]:
+def summary(study: CouplingStudy) -> CouplingSummary | None:
     """How far the coupling assumption moves the optimum: the change of every design
     variable from the paper-coupling optimum to the consistent one (relative), and what
     the paper-coupling optimum loses in the chassis-mounted model (f there against the
-    consistent optimum's f)."""
-    d, ev = res['designs'], res['evaluations']
-    g, c = d['ground_optimum'], d['chassis_optimum']
-    f = {m: {k: e['objective'] for k, e in ev[m].items()} for m in ev}
-    return {
-        'design_change': {n: c[n] / g[n] - 1.0 for n in g},
-        'f_chassis_at_ground_optimum': f['chassis']['ground_optimum'],
-        'f_chassis_at_chassis_optimum': f['chassis']['chassis_optimum'],
-        'loss_of_paper_optimum_in_chassis_model': f['chassis']['ground_optimum']
-        / f['chassis']['chassis_optimum']
-        - 1.0,
-        'f_ground_at_chassis_optimum': f['ground']['chassis_optimum'],
-        'f_ground_at_ground_optimum': f['ground']['ground_optimum'],
+    consistent optimum's f). None if an evaluation it needs is not a result."""
+    g, c = study.designs['ground_optimum'], study.designs['chassis_optimum']
+    f = {
+        (m, d): e.objective
+        for m in ('ground', 'chassis')
+        for d in ('ground_optimum', 'chassis_optimum')
+        for e in [study.evaluation(m, d)]
+        if e is not None
     }
+    f_cg, f_cc = f.get(('chassis', 'ground_optimum')), f.get(('chassis', 'chassis_optimum'))
+    f_gc, f_gg = f.get(('ground', 'chassis_optimum')), f.get(('ground', 'ground_optimum'))
+    if f_cg is None or f_cc is None or f_gc is None or f_gg is None:
+        return None
+    return CouplingSummary(
+        design_change={n: c[n] / g[n] - 1.0 for n in g},
+        f_chassis_at_ground_optimum=f_cg,
+        f_chassis_at_chassis_optimum=f_cc,
+        loss_of_paper_optimum_in_chassis_model=f_cg / f_cc - 1.0,
+        f_ground_at_chassis_optimum=f_gc,
+        f_ground_at_ground_optimum=f_gg,
+    )

@@ -18,23 +18,24 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_json
+from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.records.pareto import ParetoFront, ParetoInitial, ParetoPoint
+from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
-from suspopt.studies.run import Interrupted, Progress, evaluate, optimize
+from suspopt.studies.run import Guess, Interrupted, Progress, evaluate, optimize, problem_stats
 from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
 
 
-def _split(terms) -> tuple[list[str], list[str]]:
+def _split(terms: tuple[str, ...] | list[str]) -> tuple[list[str], list[str]]:
     chassis = [t for t in terms if not t.startswith('wheel_')]
     return chassis, [t for t in terms if t.startswith('wheel_')]
 
 
-def comfort_share_weights(terms, alpha: float) -> dict[str, float]:
+def comfort_share_weights(terms: tuple[str, ...] | list[str], alpha: float) -> dict[str, float]:
     """Objective weights of comfort share ``alpha`` in [0, 1]."""
     chassis, wheels = _split(terms)
     a = float(alpha)
@@ -45,36 +46,29 @@ def comfort_and_road_holding(
     terms: dict[str, float], scales: dict[str, float]
 ) -> tuple[float, float]:
     """C (mean normalized chassis term) and R (mean normalized wheel term) of ``terms``."""
-    chassis, wheels = _split(terms)
+    chassis, wheels = _split(list(terms))
     return (
         sum(terms[t] / scales[t] for t in chassis) / len(chassis),
         sum(terms[t] / scales[t] for t in wheels) / len(wheels),
     )
 
 
-def _point(
-    alpha: float, weights: dict[str, float], res: dict[str, Any], scales: dict[str, float]
-) -> dict[str, Any]:
+def point(
+    alpha: float, weights: dict[str, float], res: SolveRecord, scales: dict[str, float]
+) -> ParetoPoint:
     """One point of the front from an optimization's record."""
-    ok = res['success']
-    C, R = comfort_and_road_holding(res['terms'] if ok else res['terms_at_stop'], scales)
-    return {
-        'alpha': float(alpha),
-        'weights': weights,
-        'design': res['design'],
-        'objective': res['objective'],
-        'terms': res['terms'],
-        'comfort': C if ok else None,
-        'road_holding': R if ok else None,
-        **({} if ok else {'comfort_at_stop': C, 'road_holding_at_stop': R}),
-        'success': ok,
-        'status': res['status'],
-        'verified': res.get('verified'),
-        'verification': res['verification'],
-        'iterations': res['iterations'],
-        'wall_time_s': res['wall_time_s'],
-        'history': res['history'],
-    }
+    ok = res.success
+    J = res.terms if ok else res.terms_at_stop
+    C, R = comfort_and_road_holding(J, scales) if J else (None, None)
+    return ParetoPoint(
+        alpha=float(alpha),
+        weights=weights,
+        result=res,
+        comfort=C if ok else None,
+        road_holding=R if ok else None,
+        comfort_at_stop=None if ok else C,
+        road_holding_at_stop=None if ok else R,
+    )
 
 
 def run_pareto(
@@ -86,7 +80,7 @@ def run_pareto(
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
     verify: bool = True,
-) -> dict[str, Any]:
+) -> ParetoFront:
     """Optimize ``fidelity``'s model for ``points`` comfort shares α = 0 … 1, writing
     ``pareto.json`` after every point, the case recorder ``cases.sql`` (the trajectory
     at every point, as case ``alpha=<α>``) and, at the end, ``table.md`` and
@@ -96,82 +90,110 @@ def run_pareto(
     sweep goes on from the last converged point. Interrupted (Ctrl-C, SIGTERM), it stops
     with ``complete: false``, keeping the point being solved only if IPOPT had converged.
     Returns the front."""
-    import suspopt.output.report as report  # matplotlib only when figures are drawn
-
     if points < 2:
         raise ValueError(f'points must be >= 2, got {points}')
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
-    say = log or (lambda msg: None)
-    t0 = time.perf_counter()
-    scales = resolve_scales(config)
-    terms = config.terms()
-    config_dict = keep_inputs(out, config.to_dict())
-    data: dict[str, Any] = {
-        'config': config_dict,
-        'fidelity': fidelity,
-        'scales': list(scales),
-        'terms': list(terms),
-        'design_names': list(config.design_names()),
-        'bounds': config.design.bounds(),
-        'normalization': config.objective.normalization,
-        'points': [],
-        'complete': False,
-    }
-    save = lambda: write_json(out / 'pareto.json', data)  # noqa: E731
-    save()
-    problem = VehicleProblem(
-        config, fidelity, scales, recorder=out / 'cases.sql', progress=progress
-    )
-    try:
-        start = config.design.initial()
-        say('the initial design in this model (for reference)')
-        init = evaluate(
-            config, fidelity, start, scales=scales, problem=problem, label='initial', verify=False
+    return ParetoRun(config, out, fidelity, progress, log, verify).run(points)
+
+
+class ParetoRun:
+    """One run of :func:`run_pareto`: the front as it grows, on one built problem."""
+
+    def __init__(
+        self,
+        config: StudyConfig,
+        out: Path,
+        fidelity: str,
+        progress: Progress | None,
+        log: Callable[[str], None] | None,
+        verify: bool,
+    ):
+        self.config, self.out, self.fidelity, self.verify = config, out, fidelity, verify
+        self.progress = progress
+        self.say = log or (lambda msg: None)
+        self.t0 = time.perf_counter()
+        self.scales = resolve_scales(config)
+        self.front = ParetoFront(
+            config=keep_inputs(out, config.to_dict()),
+            fidelity=fidelity,
+            scales=tuple(self.scales),
+            terms=tuple(config.terms()),
+            design_names=tuple(config.design_names()),
+            bounds=config.design.bounds(),
+            normalization=config.objective.normalization,
         )
-        C, R = (
-            comfort_and_road_holding(init['terms'], scales[0]) if init['success'] else (None, None)
-        )  # not converged: no reference point
-        data['initial'] = {
-            'design': start,
-            'terms': init['terms'],
-            'comfort': C,
-            'road_holding': R,
-            'success': init['success'],
-        }
-        save()
-        guess = 'keep'  # the first point starts from the initial design's solution
-        for alpha in np.linspace(0.0, 1.0, points):
-            w = comfort_share_weights(terms, alpha)
-            cfg = config.with_weights(w)
-            say(f'comfort share {alpha:.3f}')
-            try:
-                res = optimize(
-                    cfg,
-                    fidelity,
-                    start=start,
-                    scales=scales,
-                    problem=problem,
-                    guess=guess,
-                    label=f'alpha={alpha:.6f}',
-                    verify=verify,
-                )
-            except Interrupted as stop:
-                if stop.result and stop.result['success']:
-                    data['points'].append(_point(alpha, w, stop.result, scales[0]))
-                    save()
-                raise
-            data['points'].append(_point(alpha, w, res, scales[0]))
-            save()
-            if res['success']:  # the next point starts from here, trajectory included
-                start, guess = res['design'], 'keep'
-            else:
-                guess = 'auto'
-        data['problem'] = problem.stats()
-        data['wall_time_s'] = time.perf_counter() - t0
-        data['complete'] = True
-        save()
-        say('writing table and figures')
-        report.render(out)
-    finally:
-        problem.cleanup()
-    return data
+
+    def save(self) -> None:
+        write_record(self.out, self.front)
+
+    def run(self, points: int) -> ParetoFront:
+        import suspopt.output.report as report  # matplotlib only when figures are drawn
+
+        self.save()
+        problem = VehicleProblem(
+            self.config,
+            self.fidelity,
+            self.scales,
+            recorder=self.out / 'cases.sql',
+            progress=self.progress,
+        )
+        try:
+            self.say('the initial design in this model (for reference)')
+            self.front.initial = self._initial(problem)
+            self.save()
+            start: dict[str, float] = self.config.design.initial()
+            guess: Guess = 'keep'  # the first point starts from the initial design's solution
+            for alpha in np.linspace(0.0, 1.0, points):
+                start, guess = self._point(problem, float(alpha), start, guess)
+            self.front.problem = problem_stats(problem)
+            self.front.wall_time_s = time.perf_counter() - self.t0
+            self.front.complete = True
+            self.save()
+            self.say('writing table and figures')
+            report.render(self.out)
+        finally:
+            problem.cleanup()
+        return self.front
+
+    def _initial(self, problem: VehicleProblem) -> ParetoInitial:
+        """The initial design in the front's model (not converged: no reference point)."""
+        start = self.config.design.initial()
+        init = evaluate(
+            self.config,
+            self.fidelity,
+            start,
+            scales=self.scales,
+            problem=problem,
+            label='initial',
+            verify=False,
+        )
+        J = init.terms
+        C, R = comfort_and_road_holding(J, self.scales[0]) if J else (None, None)
+        return ParetoInitial(design=start, success=init.success, terms=J, comfort=C, road_holding=R)
+
+    def _point(
+        self, problem: VehicleProblem, alpha: float, start: dict[str, float], guess: Guess
+    ) -> tuple[dict[str, float], Guess]:
+        """Optimize comfort share ``alpha`` and keep the point; the next one's start: this
+        optimum (trajectory included) if it converged, else the last converged one."""
+        w = comfort_share_weights(self.config.terms(), alpha)
+        self.say(f'comfort share {alpha:.3f}')
+        try:
+            res = optimize(
+                self.config.with_weights(w),
+                self.fidelity,
+                start=start,
+                scales=self.scales,
+                problem=problem,
+                guess=guess,
+                label=f'alpha={alpha:.6f}',
+                verify=self.verify,
+            )
+        except Interrupted as stop:
+            if stop.result is not None and stop.result.success:
+                self.front.points.append(point(alpha, w, stop.result, self.scales[0]))
+                self.save()
+            raise
+        self.front.points.append(point(alpha, w, res, self.scales[0]))
+        self.save()
+        return (res.design, 'keep') if res.success else (start, 'auto')

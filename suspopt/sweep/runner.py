@@ -133,9 +133,11 @@ def suspopt_call(action: str, **kw: Any) -> Any:
             out_dir=kw['out_dir'],
             progress=None,
             verify=kw.get('verify', True),
-        )
+        ).to_json()
     if action == 'study':
-        return run_study(config, kw['out_dir'], progress=None, log=None, verify=kw['verify'])
+        return run_study(
+            config, kw['out_dir'], progress=None, log=None, verify=kw['verify']
+        ).to_json()
     raise ValueError(f'unknown action {action!r}')  # pragma: no cover
 
 

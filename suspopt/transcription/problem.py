@@ -24,7 +24,6 @@ import shutil
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +42,14 @@ from suspopt.models.objective import (
     WeightedObjectiveComp,
     WorstCaseGapComp,
 )
+from suspopt.records.solve import (
+    Grid,
+    Iterate,
+    ScenarioResult,
+    SolveRecord,
+    SolveTimes,
+    best_feasible,
+)
 from suspopt.records.trajectory import Trajectory
 from suspopt.spec.schema import StudyConfig
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
@@ -53,27 +60,9 @@ from suspopt.transcription.vehicle import multibody_modules, vehicle_assembly
 Scales = tuple[dict[str, float], ...]
 
 
-@dataclass
-class SolveResult:
-    """What one IPOPT solve produced (terms: one table per scenario)."""
-
-    fidelity: str
-    design: dict[str, float]
-    objective: float
-    scenario_objectives: list[float]
-    terms: list[dict[str, float]]
-    scales: list[dict[str, float]]
-    success: bool
-    status: str
-    iterations: int
-    function_evaluations: int
-    gradient_evaluations: int
-    times: dict[str, float]
-    multibody_calls: dict[str, int] = field(default_factory=dict)
-    coloring_from_cache: bool = False
-    history: list[IterationInfo] = field(default_factory=list)
-    message: str = ''
-    interrupted: bool = False
+#: what one IPOPT solve produced: the record of the solve (``mode`` ``optimize`` or
+#: ``evaluate``; not yet verified)
+SolveResult = SolveRecord
 
 
 class VehicleProblem:
@@ -147,7 +136,7 @@ class VehicleProblem:
                     ref=dv.lower + span,
                     static_target=True,
                 )
-            for i, sc in enumerate(self.scenarios):
+            for i in range(len(self.scenarios)):
                 p.model.add_subsystem(
                     f'quadrature_{i}',
                     ObjectiveQuadratureComp(weights=self._quadrature[i], terms=nt),
@@ -234,7 +223,8 @@ class VehicleProblem:
     def set_weights(self, weights: dict[str, float]) -> None:
         """The objective weights w_k by term (inputs of the objective: a new weighting
         needs no new setup or coloring, e.g. along a Pareto front)."""
-        w = np.array([float(weights.get(t, 0.0)) for t in self.terms_names])
+        self.weights = {t: float(weights.get(t, 0.0)) for t in self.terms_names}
+        w = np.array(list(self.weights.values()))
         for i in range(len(self.scenarios)):
             self.problem.set_val(f'objective_{i}.weights', w)
 
@@ -303,7 +293,7 @@ class VehicleProblem:
             val = p.get_val(ts + name)
             values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val
         values['wheel_z'] = values[assembly.wheel_signal]
-        info = {
+        info: dict[str, Any] = {
             'fidelity': self.fidelity,
             'method': 'collocation',
             'scenario': self.scenarios[scenario].name,
@@ -341,8 +331,10 @@ class VehicleProblem:
     # ---------------------------------------------------------------- solve
     def solve(self, optimize: bool = True) -> SolveResult:
         """Run IPOPT: optimize the free design variables, or (``optimize=False``) only solve
-        the collocation equations at the current design."""
+        the collocation equations at the current design. The record's verification is
+        pending and its wall time is the solve's own."""
         p, drv = self.problem, self.driver
+        start = self.design()
         calls0 = self.multibody_calls()
         free = self.opt_names if optimize else []
         pinned = [self.design_var(n) for n in self.design_names if n not in free]
@@ -367,29 +359,55 @@ class VehicleProblem:
         t3 = time.perf_counter()
         success = drv.status in (0, 1)
         self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
-        times = {'coloring_s': t2 - t1, 'solve_s': t3 - t2 + (t1 - t0)}
         msg = drv.status_message
         if drv.last_error and not success:
             msg += f' (last model error: {drv.last_error})'
-        n_sc = len(self.scenarios)
-        return SolveResult(
+        history = tuple(
+            Iterate(h.iteration, h.objective, h.constraint_violation, h.elapsed_s)
+            for h in drv.history
+        )
+        designs = [{k.rsplit(':', 1)[-1]: v for k, v in h.design.items()} for h in drv.history]
+        f = self.objective()
+        return SolveRecord(
             fidelity=self.fidelity,
+            mode='optimize' if optimize else 'evaluate',
+            method='collocation',
+            start=start,
             design=self.design(),
-            objective=self.objective(),
-            scenario_objectives=[self.scenario_objective(i) for i in range(n_sc)],
-            terms=[self.terms(i) for i in range(n_sc)],
-            scales=[dict(s) for s in self.scales],
             success=success,
             status=drv.status_message,
+            objective=f if success else None,
+            objective_at_stop=None if success else f,
+            scenarios=tuple(self._scenario_result(i, success) for i in range(len(self.scenarios))),
+            aggregate=self.aggregate,
+            normalization=self.config.objective.normalization,
+            weights=dict(self.weights),
+            message=msg,
+            interrupted=drv.interrupted,
             iterations=len(drv.history) - 1 if drv.history else 0,
             function_evaluations=drv.n_function_evals,
             gradient_evaluations=drv.n_gradient_evals,
-            times=times,
-            multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},
+            times=SolveTimes(coloring_s=t2 - t1, solve_s=t3 - t2 + (t1 - t0)),
+            wall_time_s=t3 - t0,
             coloring_from_cache=self.coloring_from_cache,
-            history=list(drv.history),
-            message=msg,
-            interrupted=drv.interrupted,
+            multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},
+            history=history,
+            best_feasible_iterate=best_feasible(history, designs),
+        )
+
+    def _scenario_result(self, i: int, success: bool) -> ScenarioResult:
+        """Scenario ``i`` at the current solution (its values a result only if ``success``)."""
+        sc = self.scenarios[i]
+        f, J = self.scenario_objective(i), self.terms(i)
+        return ScenarioResult(
+            name=sc.name,
+            weight=sc.weight,
+            scales=dict(self.scales[i]),
+            objective=f if success else None,
+            terms=J if success else None,
+            objective_at_stop=None if success else f,
+            terms_at_stop=None if success else J,
+            grid=Grid(sc.segments, sc.order),
         )
 
     def record(self, label: str) -> None:

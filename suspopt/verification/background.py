@@ -1,11 +1,12 @@
 """Independent checks run beside the main work, in forked child processes.
 
-A study's time-marching verifications (SPEC §5) need nothing from the optimizations that
-follow them, so :func:`suspopt.study.run_study` hands each one to a :class:`Background`
-and goes on: the check runs in a child process (``fork``: it starts with everything
-already imported and built) while this process optimizes, and its result is collected
-when needed. At most ``jobs`` checks run at once (default: the cores this process may use,
-less one for the main work; all of them while the main work waits).
+A study's time-marching verifications need nothing from the optimizations that follow
+them, so a study hands each one to a :class:`Background` (through a
+:class:`~suspopt.verification.verify.Verifier`) and goes on: the check runs in a child
+process (``fork``: it starts with everything already imported and built) while this
+process optimizes, and its result is collected when needed. At most ``jobs`` checks run
+at once (default: the cores this process may use, less one for the main work; all of
+them while the main work waits).
 
 Each child ignores Ctrl-C (this process decides what an interrupt stops), dies with its
 parent where the platform allows it, and writes its result to a file atomically; a child
@@ -136,6 +137,7 @@ class Background:
             key = self._queue.pop(0)
             job = self._jobs[key]
             self._started += 1
+            assert self._dir is not None
             job.path = os.path.join(self._dir, f'job-{self._started}.pickle')
             job.process = mp.get_context('fork').Process(
                 target=_child, args=(job.fn, job.args, job.path), daemon=True, name=f'suspopt {key}'

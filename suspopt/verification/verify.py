@@ -1,42 +1,43 @@
 """The time-marching verification of a collocation result: the same design marched by an
 independent integrator (:mod:`suspopt.verification.timemarching`), its objective terms
-compared with the collocation's (``docs/model.md``, "Verification")."""
+compared with the collocation's (``docs/model.md``, "Verification").
+
+:func:`verify` gives a solve record its :class:`~suspopt.records.verification.Verification`
+at once; a :class:`Verifier` runs the verifications of a study beside its solves, in
+background processes (:mod:`suspopt.verification.background`)."""
 
 from __future__ import annotations
 
+import functools
 import math
 import time
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
+from suspopt.records.solve import SolveRecord
+from suspopt.records.trajectory import Trajectory
+from suspopt.records.verification import Comparison, ScenarioComparison, Verification
 from suspopt.spec import StudyConfig
 from suspopt.transcription.problem import Scales
+from suspopt.verification.background import Background
 from suspopt.verification.timemarching import simulate
-
-
-def interrupted_verification() -> dict[str, Any]:
-    return {
-        'verified': None,
-        'interrupted': True,
-        'note': 'interrupted before the time-marching verification: not checked',
-    }
-
 
 #: collocation and time marching must agree this well on every weighted J_k (relative)
 VERIFY_TOLERANCE = 5e-3
 
 
 #: the verification's time-marching tolerances: the J_k to about 1e-6 relative, thousands
-#: of times finer than VERIFY_TOLERANCE (tests/test_timemarching.py checks it against
-#: a tight integration)
+#: of times finer than VERIFY_TOLERANCE (tests/verification/test_timemarching.py checks it
+#: against a tight integration)
 VERIFY_RTOL, VERIFY_ATOL = 1e-6, 1e-9
+METHOD = f'time-marching (SciPy DOP853, rtol {VERIFY_RTOL:g})'
 
 
 def objective_value(
     config: StudyConfig, terms: dict[str, float], scales: dict[str, float]
 ) -> float:
-    """``f = Σ w_k J_k / s_k`` (eq. 4, SPEC §5) — for results computed outside the NLP."""
+    """``f = Σ w_k J_k / s_k`` (paper eq. 4) — for results computed outside the NLP."""
     w = config.objective.weights
     return float(sum(w[t] * terms[t] / scales[t] for t in config.terms()))
 
@@ -48,29 +49,31 @@ def combine(config: StudyConfig, scenario_objectives: list[float]) -> float:
     return float(sum(sc.weight * f for sc, f in zip(config.scenarios(), scenario_objectives)))
 
 
-def time_marching_check(
+@dataclass(frozen=True)
+class Marched:
+    """One scenario marched in time: its terms, ``f_s``, cost and (mixed fidelity) the
+    largest constraint residual of the linkages; the trajectory if it was kept."""
+
+    name: str
+    terms: dict[str, float]
+    objective: float
+    wall_time_s: float
+    max_constraint_residual_m: float | None
+    trajectory: Trajectory | None
+
+
+def march(
     config: StudyConfig,
     fidelity: str,
     design: dict[str, float],
-    terms: list[dict[str, float]],
     scales: Scales,
     *,
     modules: dict | None = None,
     keep: bool = False,
-) -> dict[str, Any]:
-    """Time-march ``design`` in every scenario and compare with the collocation's terms:
-    ``verified`` if every term with a nonzero weight agrees within
-    :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories (2001 points) are
-    returned under ``'trajectories'`` (not JSON)."""
-    t0 = time.perf_counter()
-    weights = config.objective.weights
-    out: dict[str, Any] = {
-        'method': f'time-marching (SciPy DOP853, rtol {VERIFY_RTOL:g})',
-        'tolerance': VERIFY_TOLERANCE,
-        'scenarios': [],
-    }
-    trajs = []
-    worst = 0.0
+) -> list[Marched]:
+    """Every scenario of ``design`` marched at the verification's tolerances; with
+    ``keep``, each trajectory (2001 points) is kept."""
+    out = []
     for i, sc in enumerate(config.scenarios()):
         tr = simulate(
             config,
@@ -82,58 +85,179 @@ def time_marching_check(
             atol=VERIFY_ATOL,
             t_eval=None if keep else np.array([0.0, sc.horizon]),
         )
-        tm = dict(zip(config.terms(), (float(x) for x in tr.J)))
-        diffs = {
-            t: abs(terms[i][t] / tm[t] - 1.0)
-            if tm[t] != 0.0
-            else (0.0 if terms[i][t] == 0.0 else math.inf)
-            for t in config.terms()
-            if weights[t] > 0.0
-        }
-        worst_term = max(diffs, key=diffs.get)
-        worst = max(worst, diffs[worst_term])
-        rec = {
-            'name': sc.name,
-            'terms': tm,
-            'objective': objective_value(config, tm, scales[i]),
-            'max_rel_diff': diffs[worst_term],
-            'worst_term': worst_term,
-            'wall_time_s': tr.info['wall_time_s'],
-        }
-        if fidelity == 'mixed':
-            rec['max_constraint_residual_m'] = tr.info['max_constraint_residual_m']
-        out['scenarios'].append(rec)
-        trajs.append(tr)
-    out['objective'] = combine(config, [s['objective'] for s in out['scenarios']])
-    out['max_rel_diff'] = worst
-    out['verified'] = bool(worst <= VERIFY_TOLERANCE)
-    out['time_s'] = time.perf_counter() - t0
-    if keep:
-        out['trajectories'] = trajs
+        terms = dict(zip(config.terms(), (float(x) for x in tr.J)))
+        out.append(
+            Marched(
+                name=sc.name,
+                terms=terms,
+                objective=objective_value(config, terms, scales[i]),
+                wall_time_s=tr.info['wall_time_s'],
+                max_constraint_residual_m=tr.info.get('max_constraint_residual_m')
+                if fidelity == 'mixed'
+                else None,
+                trajectory=tr if keep else None,
+            )
+        )
     return out
 
 
-def failed_verification(err: BaseException) -> dict[str, Any]:
-    return {'verified': None, 'failed': True, 'note': f'time-marching verification failed: {err}'}
+def _rel_diff(coll: float, tm: float) -> float:
+    if tm != 0.0:
+        return abs(coll / tm - 1.0)
+    return 0.0 if coll == 0.0 else math.inf
 
 
-def pending_verification() -> dict[str, Any]:
-    return {
-        'verified': None,
-        'pending': True,
-        'note': 'time-marching verification running in the background',
-    }
+def time_marching_check(
+    config: StudyConfig,
+    fidelity: str,
+    design: dict[str, float],
+    terms: list[dict[str, float]],
+    scales: Scales,
+    *,
+    modules: dict | None = None,
+    keep: bool = False,
+) -> tuple[Comparison, list[Trajectory]]:
+    """Time-march ``design`` in every scenario and compare with the collocation's
+    ``terms``: verified if every term with a nonzero weight agrees within
+    :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories come too."""
+    t0 = time.perf_counter()
+    weights = config.objective.weights
+    marched = march(config, fidelity, design, scales, modules=modules, keep=keep)
+    scenarios = []
+    for m, coll in zip(marched, terms):
+        diffs = {t: _rel_diff(coll[t], m.terms[t]) for t in config.terms() if weights[t] > 0.0}
+        worst = max(diffs, key=lambda t: diffs[t])
+        scenarios.append(
+            ScenarioComparison(
+                name=m.name,
+                terms=m.terms,
+                objective=m.objective,
+                max_rel_diff=diffs[worst],
+                worst_term=worst,
+                wall_time_s=m.wall_time_s,
+                max_constraint_residual_m=m.max_constraint_residual_m,
+            )
+        )
+    comparison = Comparison(
+        method=METHOD,
+        tolerance=VERIFY_TOLERANCE,
+        scenarios=tuple(scenarios),
+        objective=combine(config, [s.objective for s in scenarios]),
+        max_rel_diff=max([0.0] + [s.max_rel_diff for s in scenarios]),
+        time_s=time.perf_counter() - t0,
+    )
+    return comparison, [m.trajectory for m in marched if m.trajectory is not None]
 
 
-def skipped_verification() -> dict[str, Any]:
-    return {
-        'verified': None,
-        'skipped': True,
-        'note': 'time-marching verification skipped (--no-verify): this result is not checked',
-    }
+def verify(
+    config: StudyConfig,
+    record: SolveRecord,
+    scales: Scales,
+    *,
+    modules: dict | None = None,
+    keep: bool = False,
+) -> tuple[SolveRecord, list[Trajectory]]:
+    """``record`` with its verification: time marching compared with its terms (a failed
+    solve has nothing to verify). With ``keep``, the time-marched trajectories come too."""
+    if not record.success:
+        return record.with_verification(
+            Verification.not_applicable('not verified: the solve failed')
+        ), []
+    comparison, trajectories = time_marching_check(
+        config,
+        record.fidelity,
+        record.design,
+        [s.terms or {} for s in record.scenarios],
+        scales,
+        modules=modules,
+        keep=keep,
+    )
+    return record.with_verification(Verification.of(comparison)), trajectories
 
 
-def verified(record: dict[str, Any]) -> bool | None:
-    """True/False: the record's verification; None: skipped or not applicable."""
-    v = record.get('verification')
-    return None if not v else v.get('verified')
+# ---------------------------------------------------------------------------- beside the solves
+@dataclass(frozen=True)
+class Verified:
+    """A verification that came in: the record with it, the kept trajectories, and the
+    error if the time marching failed (the record then says ``failed``)."""
+
+    key: str
+    record: SolveRecord
+    trajectories: list[Trajectory]
+    error: Exception | None = None
+
+
+class Verifier:
+    """The verifications of a study, run beside its solves (``jobs`` background processes
+    at once, :class:`~suspopt.verification.background.Background`; None: the cores less
+    one; 0: each in this process when collected).
+
+    :meth:`submit` returns the record marked pending (or final at once: a failed solve,
+    or ``enabled`` false: skipped); :meth:`collect` returns those that came in. Use as a
+    context manager: leaving stops every background process."""
+
+    def __init__(
+        self, config: StudyConfig, scales: Scales, *, enabled: bool = True, jobs: int | None = None
+    ):
+        self.config, self.scales, self.enabled = config, scales, enabled
+        self._background = Background(jobs if enabled else 0)
+        self._pending: dict[str, SolveRecord] = {}
+
+    def __enter__(self) -> Verifier:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def submit(self, key: str, record: SolveRecord, modules: dict | None = None) -> SolveRecord:
+        """Start verifying ``record`` (kept under ``key``); keeps its trajectories."""
+        if not record.success:
+            return verify(self.config, record, self.scales)[0]
+        if not self.enabled:
+            return record.with_verification(Verification.skipped())
+        job = functools.partial(
+            verify, self.config, record, self.scales, modules=modules or None, keep=True
+        )
+        self._background.submit(key, job)
+        self._pending[key] = record
+        return record.with_verification(Verification.pending())
+
+    def pump(self) -> None:
+        """Start queued verifications as background processes become free (cheap)."""
+        self._background.pump()
+
+    def pending(self) -> list[str]:
+        return list(self._pending)
+
+    def collect(self, block: bool = False) -> list[Verified]:
+        """The verifications that came in (with ``block``, all of them), in submission
+        order; a failed one is returned with its error, the record marked failed."""
+        out = []
+        for key in list(self._pending):
+            if block or self._background.done(key):
+                out.append(self._take(key))
+        return out
+
+    def _take(self, key: str) -> Verified:
+        record = self._pending.pop(key)
+        try:
+            verified, trajectories = self._background.result(key)
+        except Exception as err:
+            return Verified(key, record.with_verification(Verification.failed(err)), [], err)
+        return Verified(key, verified, trajectories)
+
+    def settle(self, interrupted: bool) -> list[Verified]:
+        """On a stop: those already in, and the others waited for (after a failure:
+        their results are already being computed) or, after an interrupt, marked so."""
+        out = []
+        for key in list(self._pending):
+            if not interrupted or self._background.done(key):
+                out.append(self._take(key))
+            else:
+                record = self._pending.pop(key)
+                out.append(Verified(key, record.with_verification(Verification.interrupted()), []))
+        return out
+
+    def close(self) -> None:
+        self._background.close()
+        self._pending.clear()

@@ -178,12 +178,14 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
         f'{m}/{d}' for m in ('low', 'mixed') for d in ('initial', 'low_optimum', 'mixed_optimum')
     }
     for key, ev in sa['evaluations'].items():  # the recorded comparison is consistent
-        v, coll = ev['verification'], ev['terms']
+        v, coll = ev['verification']['comparison'], ev['terms']
         tm = v['scenarios'][0]['terms']
         diff = max(abs(coll[k] / tm[k] - 1.0) for k in tm)
         assert v['max_rel_diff'] == pytest.approx(diff, rel=1e-12)
         assert ev['verified'] is (diff <= v['tolerance'])
+        assert ev['verification']['state'] == ('verified' if ev['verified'] else 'not_verified')
         assert sb['evaluations'][key]['verified'] is None  # not checked, and says so
+        assert sb['evaluations'][key]['verification']['state'] == 'skipped'
     assert sa['verified'] is False and sb['verified'] is None
     table = (a / 'table.md').read_text()
     assert table.startswith('**Warning:** not verified: collocation and time marching differ')

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import codecs
 import contextlib
+import dataclasses
 import errno
 import io
 import json
@@ -29,6 +30,12 @@ import pytest
 
 from suspopt.cli.main import main
 from suspopt.multibody.mechanism import mechanism_path
+from suspopt.output.rundir import write_record
+from suspopt.records.codec import FORMAT
+from suspopt.records.manifest import DOCUMENTS
+from suspopt.records.solve import ScenarioResult, SolveRecord
+from suspopt.records.twostep import TwoStepStudy
+from suspopt.records.verification import Verification
 from suspopt.road import read_road_csv
 from suspopt.spec.load import config_from_dict
 from suspopt.spec.template import toml_value
@@ -114,7 +121,8 @@ def test_a_grid_too_coarse_for_the_horizon_is_flagged_not_verified(tmp_path, cap
     code, out, err = _run(['evaluate', '--fidelity', 'low', '--config', study], capsys)
     res = json.loads(out)
     assert code == 3 and res['verified'] is False and res['success'] is True
-    assert res['verification']['max_rel_diff'] > res['verification']['tolerance']
+    c = res['verification']['comparison']
+    assert res['verification']['state'] == 'not_verified' and c['max_rel_diff'] > c['tolerance']
     (line,) = _errors(err)
     assert 'NOT verified' in line and '"auto"' in line
 
@@ -246,59 +254,104 @@ def test_a_road_csv_with_a_byte_order_mark_keeps_its_first_row(tmp_path, capsys)
 
 
 # ------------------------------------------------------------------ results directories
-def _fake_study(out: Path, evaluations: dict | None = None) -> None:
-    """A minimal study directory as a run writes it."""
+def _fake_record(ok: bool = True) -> SolveRecord:
+    """A converged evaluation of the default car at its initial design (made-up values)."""
     cfg = config_from_dict({})
-    out.mkdir(parents=True, exist_ok=True)
-    scales = dict.fromkeys(cfg.terms(), 1.0)
-    (out / 'study.json').write_text(
-        json.dumps(
-            {
-                'config': cfg.to_dict(),
-                'scales': [scales],
-                'terms': list(cfg.terms()),
-                'design_names': list(cfg.design_names()),
-                'normalization': 'reference',
-                'steps': {},
-                'evaluations': evaluations or {},
-                'complete': True,
-            }
-        )
+    terms = dict.fromkeys(cfg.terms(), 1.0)
+    x = cfg.design.initial()
+    return SolveRecord(
+        fidelity='low',
+        mode='evaluate',
+        method='collocation',
+        start=x,
+        design=x,
+        success=ok,
+        status='Solve_Succeeded',
+        objective=1.0,
+        scenarios=(ScenarioResult('default', 1.0, dict(terms), 1.0, terms),),
+        verification=Verification.skipped(),
     )
 
 
+def _fake_study(out: Path, evaluations: dict | None = None, **changes) -> TwoStepStudy:
+    """A minimal study directory as a run writes it (manifest and study.json)."""
+    cfg = config_from_dict({})
+    out.mkdir(parents=True, exist_ok=True)
+    study = TwoStepStudy(
+        config=cfg.to_dict(),
+        scales=(dict.fromkeys(cfg.terms(), 1.0),),
+        terms=cfg.terms(),
+        design_names=cfg.design_names(),
+        normalization='reference',
+        weights=dict(cfg.objective.weights),
+        evaluations=evaluations or {},
+        complete=True,
+    )
+    study = dataclasses.replace(study, **changes)
+    write_record(out, study)
+    return study
+
+
+#: a manifest of each kind of run
+MANIFESTS = {
+    kind: json.dumps({'kind': kind, 'format': FORMAT, 'record': file})
+    for kind, (_, file) in DOCUMENTS.items()
+}
+
+
 def test_report_refuses_a_damaged_results_directory(tmp_path, capsys):
-    cases = {'not a directory': ('x', None), 'empty': ('', None)}
+    """Every damaged file a user can hand to ``report`` is exit 2 with one line naming
+    the file and the key (never the bug line)."""
+    cases = {
+        'not a directory': ('x', 'not a directory'),
+        'empty': ('', 'no manifest.json'),
+    }
     (tmp_path / 'x').write_text('')
-    for name, text in (
-        ('garbage', '{"config": '),
-        ('incomplete', '{}'),
+    study = MANIFESTS['study']
+    for name, manifest, text, words in (
+        ('no manifest', None, '{}', 'no manifest.json'),
+        ('garbage manifest', '{"kind": ', None, 'manifest.json: damaged results file'),
+        ('unknown kind', '{"kind": "x", "format": 1, "record": "a"}', None, 'kind: not a kind'),
+        ('newer format', study.replace(f'"format": {FORMAT}', '"format": 99'), '{}', 'format'),
+        ('no record', study, None, 'no study.json'),
+        ('garbage', study, '{"config": ', 'study.json: damaged results file'),
+        ('incomplete', study, '{}', 'study.json: kind: missing'),
+        ('another kind', study, '{"kind": "solve", "format": 1}', "kind: expected 'study'"),
         (
             'wrong types',
-            '{"config": 1, "scales": 2, "terms": 3, "design_names": 4, "normalization": 5}',
+            study,
+            json.dumps({'kind': 'study', 'format': FORMAT, 'config': 1, 'scales': 2}),
+            'study.json: config: expected a JSON object, got 1',
         ),
     ):
         (tmp_path / name).mkdir()
-        (tmp_path / name / 'study.json').write_text(text)
-        cases[name] = (name, None)
+        if manifest is not None:
+            (tmp_path / name / 'manifest.json').write_text(manifest)
+        if text is not None:
+            (tmp_path / name / 'study.json').write_text(text)
+        cases[name] = (name, words)
     (tmp_path / 'run').mkdir()
-    (tmp_path / 'run' / 'result.json').write_text('{"fidelity": "low"}')
-    cases['incomplete run'] = ('run', None)
-    ok = {
-        'success': True,
-        'objective': 1.0,
-        'design': config_from_dict({}).design.initial(),
-        'terms': dict.fromkeys(config_from_dict({}).terms(), 1.0),
-        'verified': None,
-    }
-    _fake_study(tmp_path / 'recorder', {'low/initial': ok})
+    (tmp_path / 'run' / 'manifest.json').write_text(MANIFESTS['solve'])
+    (tmp_path / 'run' / 'result.json').write_text(
+        json.dumps({'kind': 'solve', 'format': FORMAT, 'fidelity': 'low'})
+    )
+    cases['incomplete run'] = ('run', 'result.json: mode: missing')
+    _fake_study(tmp_path / 'recorder', {'low/initial': _fake_record()})
     (tmp_path / 'recorder' / 'low.sql').write_bytes(b'not a database' * 100)
     cases['damaged recorder'] = ('recorder', 'damaged case recorder')
+    _fake_study(tmp_path / 'no car', config={'road': {}})
+    cases['damaged study description'] = ('no car', 'study.json: config.vehicle: missing')
+    bad_value = _fake_record().to_json()
+    bad_value['scenarios'][0]['terms']['heave'] = 'x'
+    (tmp_path / 'value').mkdir()
+    (tmp_path / 'value' / 'manifest.json').write_text(MANIFESTS['solve'])
+    (tmp_path / 'value' / 'result.json').write_text(json.dumps(bad_value))
+    cases['a term not a number'] = ('value', 'scenarios[0].terms.heave: expected a number')
     for name, (d, words) in cases.items():
         code, _, err = _run(['report', tmp_path / d], capsys)
         (line,) = _errors(err)
         assert code == 2, (name, err)
-        assert words is None or words in line
+        assert words in line, (name, line)
 
 
 def test_an_unwritable_or_full_out_is_exit_4(tmp_path, capsys, monkeypatch):
@@ -319,7 +372,8 @@ def test_an_unwritable_or_full_out_is_exit_4(tmp_path, capsys, monkeypatch):
         ['study', *GRID, '--no-verify', '--quiet', '--out', tmp_path / 'full'], capsys
     )
     (line,) = _errors(err)
-    assert code == 4 and os.strerror(errno.ENOSPC) in line and 'study.json' in line
+    assert code == 4 and os.strerror(errno.ENOSPC) in line
+    assert re.search(r'cannot write \S*/full/(manifest|study)\.json', line), line
 
 
 def test_overwrite_leaves_nothing_of_an_earlier_run_when_the_new_one_fails_early(tmp_path, capsys):
@@ -412,27 +466,28 @@ def test_held_variables_failed_solves_and_kept_inputs(tmp_path, capsys):
 
 
 def test_a_failed_pareto_point_is_not_a_point_of_the_front():
-    from suspopt.output.report import pareto_markdown
+    from suspopt.output.pareto_report import pareto_markdown
+    from suspopt.records.pareto import ParetoFront, ParetoPoint
 
-    front = {
-        'fidelity': 'low',
-        'normalization': 'reference',
-        'design_names': ['k_S1'],
-        'points': [
-            {
-                'alpha': 0.5,
-                'design': {'k_S1': 2e4},
-                'comfort': None,
-                'road_holding': None,
-                'comfort_at_stop': 0.0,
-                'road_holding_at_stop': 0.0,
-                'objective': None,
-                'success': False,
-                'status': 'Maximum_Iterations_Exceeded',
-                'iterations': 3,
-            }
-        ],
-    }
+    failed = dataclasses.replace(
+        _fake_record(),
+        success=False,
+        status='Maximum_Iterations_Exceeded',
+        objective=None,
+        objective_at_stop=0.0,
+        iterations=3,
+        design={'k_S1': 2e4},
+    )
+    front = ParetoFront(
+        config={},
+        fidelity='low',
+        scales=({},),
+        terms=(),
+        design_names=('k_S1',),
+        bounds={'k_S1': (1e4, 5e4)},
+        normalization='reference',
+        points=[ParetoPoint(0.5, {}, failed, None, None, 0.0, 0.0)],
+    )
     row = pareto_markdown(front).splitlines()[4]
     assert row.startswith('| 0.500 | 20000 | — | — | — |') and 'NOT converged' in row
 
@@ -471,7 +526,8 @@ def test_an_interrupt_just_after_ipopts_last_iteration_keeps_the_result(
     res = json.loads((out / 'result.json').read_text())
     assert res['success'] is True and res['interrupted'] is True
     assert math.isfinite(res['objective']) and res['terms']
-    assert res['verified'] is None and 'interrupted' in res['verification']['note']
+    assert res['verified'] is None and res['verification']['state'] == 'interrupted'
+    assert 'interrupted' in res['verification']['note']
 
 
 def test_a_study_interrupted_after_a_step_converged_keeps_that_step(tmp_path, capsys, monkeypatch):
@@ -501,17 +557,19 @@ def test_a_study_interrupted_after_a_step_converged_keeps_that_step(tmp_path, ca
     assert data['complete'] is False and list(data['evaluations']) == ['low/initial']
     step = data['steps']['low']
     assert step['success'] and step['interrupted'] and step['verified'] is None
+    assert step['verification']['state'] == 'interrupted'
     assert 'interrupted' in step['verification']['note']
     # the first evaluation's verification ran in the background: either it came in (a
     # real comparison: at this coarse grid the initial design is *not* verified, pitch
     # differs by ~90 %), or it is said to be cut off
     first = data['evaluations']['low/initial']
     v = first['verification']
-    if v.get('interrupted'):
-        assert first['verified'] is None and 'max_rel_diff' not in v
+    if v['state'] == 'interrupted':
+        assert first['verified'] is None and v['comparison'] is None
     else:
-        assert first['verified'] is (v['max_rel_diff'] <= v['tolerance'])
-        assert math.isfinite(v['objective']) and v['scenarios'][0]['terms']
+        c = v['comparison']
+        assert first['verified'] is (c['max_rel_diff'] <= c['tolerance'])
+        assert math.isfinite(c['objective']) and c['scenarios'][0]['terms']
     assert not multiprocessing.active_children()  # no background process left
 
 
@@ -614,7 +672,7 @@ def test_sigterm_during_pareto_leaves_no_scratch_and_report_uses_the_copies(tmp_
     assert proc.returncode == 130 and 'Traceback' not in stderr and BUG not in stderr, stderr
     assert not list(scratch.glob('suspopt-om-*'))
     front = json.loads((out / 'pareto.json').read_text())
-    assert front['complete'] is False and all(p['success'] for p in front['points'])
+    assert front['complete'] is False and all(p['result']['success'] for p in front['points'])
     road.unlink()
     code, _, err = _run(['report', out], capsys)
     assert code == 0, err
@@ -778,8 +836,6 @@ def test_the_readme_python_api_example_runs(tmp_path, monkeypatch):
     code = block.split('```python', 1)[1].split('```', 1)[0]
     monkeypatch.chdir(tmp_path)
     exec(compile(code, 'README.md (Python API)', 'exec'), {'__name__': '__readme__'})
-
-
 
 
 def test_nothing_a_user_receives_points_into_the_projects_shared_folder():

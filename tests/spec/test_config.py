@@ -246,7 +246,7 @@ def test_csv_road_reproduces_two_bumps(tmp_path):
     scales = (dict.fromkeys(base.terms(), 1.0),)
     a = evaluate(base, 'low', design, method='time-marching', scales=scales)
     b = evaluate(cfg, 'low', design, method='time-marching', scales=scales)
-    assert abs(b['objective'] / a['objective'] - 1.0) < 1e-6
+    assert abs(b.objective / a.objective - 1.0) < 1e-6
 
 
 def test_a_bad_study_file_is_refused_before_the_heavy_imports(tmp_path):

@@ -382,7 +382,7 @@ def test_check_totals_of_the_coupled_nlp(chassis_problem):
         driver_scaling=False,
     )
     worst = {}
-    for (o, w), d in data.items():
+    for (_o, w), d in data.items():
         J_fd, J_an = np.asarray(d['J_fd']), np.asarray(d.get('J_fwd', d.get('J_rev')))
         scale = np.max(np.abs(J_fd))
         if scale > 0.0:
@@ -543,14 +543,11 @@ def test_collocation_matches_time_marching_on_the_default_grid(cfg, scales):
     from suspopt.studies.run import evaluate
 
     res = evaluate(with_mount(cfg, 'chassis'), 'mixed', scales=scales)
-    v = res['verification']
-    print(
-        f'\ncollocation vs time marching: {v["max_rel_diff"]:.1e} '
-        f'({v["scenarios"][0]["worst_term"]})'
-    )
-    assert res['verified'] and v['max_rel_diff'] < 1e-3
-    assert res['max_constraint_residual_m'] < 1e-10
-    assert v['scenarios'][0]['max_constraint_residual_m'] < 1e-10
+    v = res.verification.comparison
+    print(f'\ncollocation vs time marching: {v.max_rel_diff:.1e} ({v.scenarios[0].worst_term})')
+    assert res.verified and v.max_rel_diff < 1e-3
+    assert res.max_constraint_residual_m < 1e-10
+    assert v.scenarios[0].max_constraint_residual_m < 1e-10
 
 
 @pytest.mark.slow

@@ -11,7 +11,7 @@
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 import shutil
 
 import numpy as np
@@ -22,7 +22,10 @@ import suspopt.studies.compare as compare
 from suspopt.cli.main import main
 from suspopt.errors import ModelError
 from suspopt.output.compare_report import compare_markdown
-from suspopt.output.rundir import read_json
+from suspopt.output.rundir import read_json, read_record
+from suspopt.records.compare import CompareStudy
+from suspopt.records.solve import ScenarioResult, SolveRecord, SolveTimes
+from suspopt.records.verification import Comparison, ScenarioComparison, Verification
 
 TINY = """
 [maneuver]
@@ -58,18 +61,19 @@ def test_compare_end_to_end(tiny, tmp_path, capsys):
         ]
     )
     assert rc == 0, capsys.readouterr().err
-    data = read_json(out / 'compare.json')
-    assert data['complete'] and data['verified'] is True and not data['failures']
-    models = ['low', 'mixed:double_wishbone', 'mixed:macpherson']
+    data = read_record(out, CompareStudy)
+    assert isinstance(data, CompareStudy)
+    assert data.complete and data.verified is True and not data.failures
+    models = ('low', 'mixed:double_wishbone', 'mixed:macpherson')
     designs = ['initial', 'low_optimum', 'optimum:double_wishbone', 'optimum:macpherson']
-    assert data['models'] == models and list(data['designs']) == designs
+    assert data.models == models and list(data.designs) == designs
     f = {}
     for d in designs:
         for m in models:
-            c = data['cells'][f'{d}|{m}']
-            assert c['success'] and c['verified'] is True, (d, m)
-            assert c['verification']['max_rel_diff'] < data['tolerance']
-            f[d, m] = c['objective']
+            c = data.cell(d, m)
+            assert c is not None and c.success and c.verified is True, (d, m)
+            assert c.verification.comparison.max_rel_diff < data.tolerance
+            f[d, m] = c.objective
     # each model's own optimum is the best design in it (its optimization worked) ...
     own = {
         'low': 'low_optimum',
@@ -78,17 +82,19 @@ def test_compare_end_to_end(tiny, tmp_path, capsys):
     }
     for m, d_own in own.items():
         assert all(f[d_own, m] <= f[d, m] * (1 + 1e-6) for d in designs), m
-        assert data['best'][m]['best'] == d_own
+        assert data.best[m].best == d_own
     # ... and the two linkages want different settings (the point of the comparison)
-    dw, mp = data['designs']['optimum:double_wishbone'], data['designs']['optimum:macpherson']
+    dw, mp = data.designs['optimum:double_wishbone'], data.designs['optimum:macpherson']
     assert abs(dw['c_S1'] - mp['c_S1']) > 0.1 * 4000.0
-    assert data['best']['mixed:double_wishbone']['excess']['optimum:macpherson'] > 0.01
+    assert data.best['mixed:double_wishbone'].excess['optimum:macpherson'] > 0.01
     # the kinematics of the linkages (paper Table 2: spring at 0.15 of the 0.33 m arm)
-    kin = data['kinematics']['curves']
-    assert kin['double_wishbone']['at_reference']['motion_ratio'] == pytest.approx(
+    kin = data.kinematics.curves
+    assert kin['double_wishbone'].at_reference['motion_ratio'] == pytest.approx(
         0.15 / 0.33, rel=1e-6
     )
-    assert 0.9 < kin['macpherson']['at_reference']['motion_ratio'] < 1.0
+    assert 0.9 < kin['macpherson'].at_reference['motion_ratio'] < 1.0
+    # the file holds what the record says (a round trip through compare.json)
+    assert read_json(out / 'compare.json') == data.to_json()
     table = (out / 'table.md').read_text()
     assert 'Cross table' in table
     # the legend, the 3 optima, the 12 cells
@@ -102,13 +108,13 @@ def test_compare_end_to_end(tiny, tmp_path, capsys):
     assert (out / 'table.md').read_text() == table
     assert (out / 'figures' / 'trajectories.png').exists()
     # a cell that time marching does not confirm: exit 3, marked in the table
-    bad = copy.deepcopy(data)
-    cell = bad['cells']['optimum:macpherson|mixed:double_wishbone']
-    cell['verification'].update(verified=False, max_rel_diff=0.02)
-    cell['verified'] = False
-    compare.finish(bad)
-    assert bad['verified'] is False and compare.exit_code(bad) == 3
-    text = compare_markdown(bad)
+    key = 'optimum:macpherson|mixed:double_wishbone'
+    cell = data.cells[key]
+    off = dataclasses.replace(cell.verification.comparison, max_rel_diff=0.02)
+    data.cells[key] = cell.with_verification(Verification.of(off))
+    compare.finish(data)
+    assert data.verified is False and compare.exit_code(data) == 3
+    text = compare_markdown(data)
     assert text.count('✗') == 2 and 'not verified: 1 of 12 cells' in text
 
 
@@ -147,27 +153,29 @@ def _stand_in(
         f = f_of(cfg, fid, design)
         key = f'{label}|{key_of(cfg, fid)}'
         ok = key != unverified
-        return {
-            'fidelity': fid,
-            'mode': mode,
-            'method': 'collocation',
-            'design': design,
-            'objective': f,
-            'terms': dict.fromkeys(cfg.terms(), f),
-            'success': True,
-            'status': 'Solve_Succeeded',
-            'iterations': 3,
-            'times': {'solve_s': 0.0},
-            'wall_time_s': 0.0,
-            'verified': ok,
-            'verification': {
-                'verified': ok,
-                'objective': f,
-                'tolerance': 5e-3,
-                'max_rel_diff': 1e-4 if ok else 0.02,
-                'scenarios': [{'worst_term': 'heave'}],
-            },
-        }
+        terms = dict.fromkeys(cfg.terms(), f)
+        comparison = Comparison(
+            method='stand-in',
+            tolerance=5e-3,
+            scenarios=(ScenarioComparison('s', terms, f, 1e-4 if ok else 0.02, 'heave', 0.0),),
+            objective=f,
+            max_rel_diff=1e-4 if ok else 0.02,
+            time_s=0.0,
+        )
+        return SolveRecord(
+            fidelity=fid,
+            mode=mode,
+            method='collocation',
+            start=design,
+            design=design,
+            success=True,
+            status='Solve_Succeeded',
+            objective=f,
+            scenarios=(ScenarioResult('s', 1.0, dict.fromkeys(cfg.terms(), 1.0), f, terms),),
+            iterations=3,
+            times=SolveTimes(0.0, 0.0),
+            verification=Verification.of(comparison),
+        )
 
     def evaluate(cfg, fid, design, *, label=None, **kw):
         return record(cfg, fid, design, 'evaluate', label)
@@ -192,7 +200,14 @@ def _stand_in(
             return None
 
         def stats(self):
-            return {}
+            nlp = {'variables': 0, 'constraints': 0, 'jacobian_nonzeros': 0, 'colors': 0}
+            return {
+                'setup_s': 0.0,
+                'coloring_s': 0.0,
+                'coloring_from_cache': False,
+                'nlp': nlp,
+                'multibody_calls_total': {},
+            }
 
         def cleanup(self):
             pass
@@ -202,7 +217,7 @@ def _stand_in(
     monkeypatch.setattr(compare, 'VehicleProblem', Problem)
     for name in ('_kinematics_figure', '_cross_figure'):  # the tables are the point here
         monkeypatch.setattr(compare_report, name, lambda path, data: path)
-    monkeypatch.setattr(compare_report, 'road_figure', lambda path, out, config: path)
+    monkeypatch.setattr(compare_report, 'road_figure', lambda path, setting: path)
 
 
 def _run(tiny, out, capsys, extra=()):
@@ -227,18 +242,18 @@ def test_compare_failed_topology_keeps_the_others(tiny, tmp_path, capsys, monkey
     rc, io = _run(tiny, tmp_path / 'cmp', capsys)
     assert rc == 1
     assert 'optimization failed in mixed:macpherson: Model_Error' in io.err
-    data = read_json(tmp_path / 'cmp' / 'compare.json')
-    assert data['complete'] and data['failures'][0]['model'] == 'mixed:macpherson'
-    assert 'optimum:macpherson' not in data['designs']
-    assert data['steps']['mixed:macpherson']['success'] is False
+    data = read_record(tmp_path / 'cmp', CompareStudy)
+    assert data.complete and data.failures[0].model == 'mixed:macpherson'
+    assert 'optimum:macpherson' not in data.designs
+    assert data.steps['mixed:macpherson'].success is False
     # every design that exists, in every model (the failed topology's model included)
-    assert sorted(data['cells']) == sorted(
+    assert sorted(data.cells) == sorted(
         f'{d}|{m}'
         for d in ('initial', 'low_optimum', 'optimum:double_wishbone')
-        for m in data['models']
+        for m in data.models
     )
-    assert data['best']['mixed:double_wishbone']['best'] == 'optimum:double_wishbone'
-    assert data['best']['mixed:macpherson']['f_own'] is None
+    assert data.best['mixed:double_wishbone'].best == 'optimum:double_wishbone'
+    assert data.best['mixed:macpherson'].f_own is None
     table = (tmp_path / 'cmp' / 'table.md').read_text()
     assert '**Failed:** optimization in mixed:macpherson' in table
 
@@ -248,8 +263,8 @@ def test_compare_not_verified_exits_3(tiny, tmp_path, capsys, monkeypatch):
     rc, io = _run(tiny, tmp_path / 'cmp', capsys)
     assert rc == 3
     assert 'not verified: 1 of 12 cells; worst low_optimum|mixed:macpherson' in io.err
-    data = read_json(tmp_path / 'cmp' / 'compare.json')
-    assert data['complete'] and data['verified'] is False and not data['failures']
+    data = read_record(tmp_path / 'cmp', CompareStudy)
+    assert data.complete and data.verified is False and not data.failures
 
 
 def test_compare_interrupt_keeps_what_finished(tiny, tmp_path, capsys, monkeypatch):
@@ -257,9 +272,9 @@ def test_compare_interrupt_keeps_what_finished(tiny, tmp_path, capsys, monkeypat
     out = tmp_path / 'cmp'
     rc, _ = _run(tiny, out, capsys)
     assert rc == 130
-    data = read_json(out / 'compare.json')
-    assert data['interrupted'] and not data['complete']
-    assert set(data['steps']) == {'low', 'mixed:double_wishbone'}
+    data = read_record(out, CompareStudy)
+    assert data.interrupted and not data.complete
+    assert set(data.steps) == {'low', 'mixed:double_wishbone'}
     assert main(['report', str(out)]) == 0  # a partial study renders
     assert '**Incomplete:** the study was interrupted' in (out / 'table.md').read_text()
 
@@ -320,12 +335,12 @@ def test_compare_full_car_topologies_per_axle(tmp_path, capsys, monkeypatch):
         ]
     )
     assert rc == 0, capsys.readouterr().err
-    data = read_json(out / 'compare.json')
-    assert data['models'] == ['low', 'mixed:macpherson+double_wishbone', 'mixed:double_wishbone']
-    top = data['topologies'][0]
-    assert (top['front'], top['rear']) == ('macpherson', 'double_wishbone')
-    assert set(data['kinematics']['curves']) == {'macpherson', 'double_wishbone'}
-    assert len(data['cells']) == 4 * 3
+    data = read_record(out, CompareStudy)
+    assert data.models == ('low', 'mixed:macpherson+double_wishbone', 'mixed:double_wishbone')
+    top = data.topologies[0]
+    assert (top.front, top.rear) == ('macpherson', 'double_wishbone')
+    assert set(data.kinematics.curves) == {'macpherson', 'double_wishbone'}
+    assert len(data.cells) == 4 * 3
     table = (out / 'table.md').read_text()
     assert '| full car (low fidelity) |' in table and 'k_R1 [N·m/rad]' in table
 
@@ -349,9 +364,9 @@ def test_full_car_macpherson_front_double_wishbone_rear_verifies():
     cfg = config_from_dict(d)
     assert list(multibody_modules(cfg)) == ['macpherson', 'double_wishbone']
     rec = evaluate(cfg, 'mixed', scales=resolve_scales(cfg))
-    assert rec['success'] and rec['verified'] is True, rec['verification']
-    assert rec['max_constraint_residual_m'] < 1e-10
-    J = rec['terms']
+    assert rec.success and rec.verified is True, rec.verification
+    assert rec.max_constraint_residual_m < 1e-10
+    J = rec.terms
     assert J['roll'] > 0.0 and np.isfinite(list(J.values())).all()
     # the axles differ: the same road under a MacPherson and a double wishbone
     assert J['wheel_1L'] != pytest.approx(J['wheel_2L'], rel=1e-2)

@@ -18,13 +18,16 @@ def reduced_full_car(cfg):
     """The full car that must reproduce the half car: same chassis, identical tracks, every
     corner's mass, spring, damper and tyre rate half of the half car's axle values."""
     v = cfg.vehicle
-    axle = lambda ax: {
-        'axle_position': ax.axle_position,
-        'wheel_mass': ax.wheel_mass / 2,
-        'tyre_stiffness': ax.tyre_stiffness / 2,
-        'track': 1.5,
-        'anti_roll_bar': False,
-    }  # noqa: E731
+
+    def axle(ax):
+        return {
+            'axle_position': ax.axle_position,
+            'wheel_mass': ax.wheel_mass / 2,
+            'tyre_stiffness': ax.tyre_stiffness / 2,
+            'track': 1.5,
+            'anti_roll_bar': False,
+        }
+
     return config_from_dict(
         {
             'vehicle': {
@@ -105,7 +108,7 @@ def test_full_car_reduces_to_the_half_car_by_collocation(cfg, scales):
         scales=resolve_scales(full),
         verify=False,
     )
-    _compare(a['terms'], b['terms'], 1e-8)
+    _compare(a.terms, b.terms, 1e-8)
 
 
 def test_anti_roll_bar_and_roll_energy_balance():

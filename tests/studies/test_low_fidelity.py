@@ -28,22 +28,22 @@ def _max_rel(a, b) -> float:
 
 def test_optimum_converged(low_optimum):
     res = low_optimum
-    assert res['success'] and res['status'] == 'Solve_Succeeded'
-    assert res['objective'] < 0.9  # improves on f = 1 at the initial design
-    assert set(res['design']) == {'k_S1', 'k_S2', 'c_S1', 'c_S2'}
-    assert set(res['terms']) == {'heave', 'pitch', 'wheel_1', 'wheel_2'} == set(res['scales'])
-    assert res['verified'] is True and res['verification']['max_rel_diff'] < 1e-3
+    assert res.success and res.status == 'Solve_Succeeded'
+    assert res.objective < 0.9  # improves on f = 1 at the initial design
+    assert set(res.design) == {'k_S1', 'k_S2', 'c_S1', 'c_S2'}
+    assert set(res.terms) == {'heave', 'pitch', 'wheel_1', 'wheel_2'} == set(res.scales)
+    assert res.verified is True and res.verification.comparison.max_rel_diff < 1e-3
 
 
 @pytest.mark.parametrize('where', ['initial', 'optimum'])
 def test_collocation_matches_time_marching(cfg, scales, low_optimum, where):
     """SPEC §6 / paper §4.2: every J_k within 0.1 % on the default grid, trajectories overlay."""
-    design = cfg.design.initial() if where == 'initial' else low_optimum['design']
+    design = cfg.design.initial() if where == 'initial' else low_optimum.design
     with VehicleProblem(cfg, 'low', scales) as vp:
         res = evaluate(cfg, 'low', design, scales=scales, problem=vp)
         coll = vp.timeseries()
     tm = simulate(cfg, 'low', design, t_eval=np.unique(coll.t))
-    J_coll = np.array([res['terms'][t] for t in cfg.terms()])
+    J_coll = np.array([res.terms[t] for t in cfg.terms()])
     assert _max_rel(J_coll, tm.J) < 1e-3
     t_u, idx = np.unique(coll.t, return_index=True)
     for name in ('z_C', 'theta_C', 'z_W', 'zdd_C', 'thdd_C'):
@@ -55,9 +55,9 @@ def test_paper_grid_is_inaccurate(cfg, scales):
     """The paper's 16 x 5 grid does not reproduce time marching on this road (SPEC §6)."""
     coarse = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=16))
     res = evaluate(coarse, 'low', scales=scales, guess=None)
-    assert abs(res['objective'] - 1.0) > 0.05  # f = 1 exactly by time marching
-    assert res['verified'] is False  # and the result says so
-    assert abs(res['verification']['objective'] - 1.0) < 1e-6
+    assert abs(res.objective - 1.0) > 0.05  # f = 1 exactly by time marching
+    assert res.verified is False  # and the result says so
+    assert abs(res.verification.comparison.objective - 1.0) < 1e-6
 
 
 def test_total_sparsity_holds_away_from_start(cfg, scales):
@@ -114,7 +114,7 @@ def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_opt
         J = objective_terms_by_hand(cfg, dict(zip(names, lo + u * (hi - lo))))
         return float(sum(w[t] * J[k] / s[t] for k, t in enumerate(cfg.terms())))
 
-    u_star = (np.array([low_optimum['design'][n] for n in names]) - lo) / (hi - lo)
+    u_star = (np.array([low_optimum.design[n] for n in names]) - lo) / (hi - lo)
     # start a fair distance from the collocation optimum, halfway from the box centre
     u0 = 0.5 * (u_star + 0.5)
     res = minimize(
@@ -126,8 +126,8 @@ def test_optimum_agrees_with_independent_scipy_optimization(cfg, scales, low_opt
     )
     print(f'\nL-BFGS-B: {res.nit} iterations, {res.nfev} evaluations, {res.message}')
     x_scipy = lo + res.x * (hi - lo)
-    x_ipopt = np.array([low_optimum['design'][n] for n in names])
-    f_diff = abs(low_optimum['objective'] / res.fun - 1.0)
+    x_ipopt = np.array([low_optimum.design[n] for n in names])
+    f_diff = abs(low_optimum.objective / res.fun - 1.0)
     print(f'designs differ by {np.max(np.abs(x_ipopt / x_scipy - 1)):.2e}, f by {f_diff:.2e}')
     # the collocation's own error on the 80 x 5 grid: ~3e-4 in the design, ~2e-5 in f (a
     # tyre rate 3 % off in the hand-written model moves the design 10 %, f 1 %)
@@ -139,9 +139,9 @@ def test_iteration_limited_run_reports_failure(cfg, scales, tmp_path):
     """A run stopped by the iteration limit reports success: false truthfully."""
     limited = cfg.replace(optimizer=dataclasses.replace(cfg.optimizer, max_iter=2))
     res = optimize(limited, 'low', scales=scales, out_dir=tmp_path)
-    assert res['success'] is False
-    assert res['status'] == 'Maximum_Iterations_Exceeded'
-    assert res['iterations'] == 2
+    assert res.success is False and res.objective is None
+    assert res.status == 'Maximum_Iterations_Exceeded'
+    assert res.iterations == 2
     import json
 
     saved = json.loads((tmp_path / 'result.json').read_text())
@@ -164,9 +164,9 @@ def test_zero_start_with_fresh_coloring_reaches_same_optimum(
     for name in ('z_C', 'v_C', 'theta_C', 'omega_C', 'z_W', 'v_W'):
         assert np.all(traj[name][0] == 0.0)
     x = np.array([res.design[n] for n in cfg.design_names()])
-    x_ref = np.array([low_optimum['design'][n] for n in cfg.design_names()])
+    x_ref = np.array([low_optimum.design[n] for n in cfg.design_names()])
     np.testing.assert_allclose(x, x_ref, rtol=1e-4)
-    assert abs(res.objective - low_optimum['objective']) < 1e-7
+    assert abs(res.objective - low_optimum.objective) < 1e-7
 
 
 def test_driver_sparse_jacobian_equals_openmdao_totals(cfg, scales):

@@ -18,8 +18,8 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope='module')
 def low_design(cfg, scales):
     res = optimize(cfg, 'low', scales=scales)
-    assert res['success']
-    return res['design']
+    assert res.success
+    return res.design
 
 
 @pytest.fixture(scope='module')
@@ -38,21 +38,19 @@ def test_collocation_matches_time_marching(cfg, scales, low_design, mixed_proble
     """Each J_k within 0.5 % (issue 4); the multibody constraints hold along the solution."""
     design = cfg.design.initial() if where == 'initial' else low_design
     res = evaluate(cfg, 'mixed', design, scales=scales, problem=mixed_problem)
-    v = res['verification']
-    assert res['verified'] and v['max_rel_diff'] < 5e-3
-    assert res['max_constraint_residual_m'] < 1e-10
-    assert v['scenarios'][0]['max_constraint_residual_m'] < 1e-10
+    v = res.verification.comparison
+    assert res.verified and v.max_rel_diff < 5e-3
+    assert res.max_constraint_residual_m < 1e-10
+    assert v.scenarios[0].max_constraint_residual_m < 1e-10
 
 
 def test_mixed_optimum_improves_in_the_mixed_model(cfg, scales, low_design, mixed_optimum):
-    assert mixed_optimum['success']
+    assert mixed_optimum.success
     at_low = evaluate(cfg, 'mixed', low_design, scales=scales, method='time-marching')
-    at_mixed = evaluate(
-        cfg, 'mixed', mixed_optimum['design'], scales=scales, method='time-marching'
-    )
-    assert at_mixed['objective'] < at_low['objective']
-    assert abs(at_mixed['objective'] / mixed_optimum['objective'] - 1.0) < 5e-3
-    calls = mixed_optimum['multibody_calls']  # the black box really ran
+    at_mixed = evaluate(cfg, 'mixed', mixed_optimum.design, scales=scales, method='time-marching')
+    assert at_mixed.objective < at_low.objective
+    assert abs(at_mixed.objective / mixed_optimum.objective - 1.0) < 5e-3
+    calls = mixed_optimum.multibody_calls  # the black box really ran
     assert calls['augmented'] > 0 and calls['positions'] > 0
 
 
@@ -79,7 +77,7 @@ def test_mixed_optimum_is_local_optimum_of_time_marching(cfg, scales, mixed_opti
         )
         return objective_value(cfg, dict(zip(cfg.terms(), tr.J)), scales[0])
 
-    x = np.array([mixed_optimum['design'][n] for n in names])
+    x = np.array([mixed_optimum.design[n] for n in names])
     assert np.all((x - 0.02 * (hi - lo) >= lo) & (x + 0.02 * (hi - lo) <= hi))  # interior
     h = 0.02 * (hi - lo)
     f0 = f(x)
@@ -176,7 +174,7 @@ def test_check_totals_of_the_nlp(cfg, scales):
             driver_scaling=False,
         )
     worst = 0.0
-    for (o, w), d in data.items():
+    for _, d in data.items():
         J_fd, J_an = np.asarray(d['J_fd']), np.asarray(d['J_fwd'])
         scale = max(np.max(np.abs(J_fd)), 1e-30)
         worst = max(worst, np.max(np.abs(J_an - J_fd)) / scale)
@@ -201,11 +199,11 @@ def test_another_linkage_in_the_vehicle(cfg, scales):
     )
     design = cfg.design.initial()
     res = evaluate(sla, 'mixed', design, scales=scales)
-    v = res['verification']
-    tm = np.array([v['scenarios'][0]['terms'][t] for t in cfg.terms()])
-    print(f'\nSLA car: J = {tm}, collocation vs time marching {v["max_rel_diff"]:.1e}')
-    assert res['verified'] and v['max_rel_diff'] < 5e-3
-    assert res['max_constraint_residual_m'] < 1e-10
+    v = res.verification.comparison
+    tm = np.array([v.scenarios[0].terms[t] for t in cfg.terms()])
+    print(f'\nSLA car: J = {tm}, collocation vs time marching {v.max_rel_diff:.1e}')
+    assert res.verified and v.max_rel_diff < 5e-3
+    assert res.max_constraint_residual_m < 1e-10
     parallelogram = simulate(cfg, 'mixed', design, t_eval=np.array([0.0, 5.0])).J
     assert np.max(np.abs(tm / parallelogram - 1.0)) > 0.05
 

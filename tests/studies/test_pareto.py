@@ -33,26 +33,26 @@ def test_front_is_a_front(front, scales):
     holding R never gets better; no computed point dominates another; every f_α is the
     weighted sum of its own J_k."""
     _, data = front
-    pts = data['points']
-    assert data['complete'] and len(pts) == POINTS and all(p['success'] for p in pts)
-    assert all(p['verified'] for p in pts)
-    assert [p['alpha'] for p in pts] == pytest.approx(np.linspace(0.0, 1.0, POINTS))
-    C = np.array([p['comfort'] for p in pts])
-    R = np.array([p['road_holding'] for p in pts])
+    pts = data.points
+    assert data.complete and len(pts) == POINTS and all(p.success for p in pts)
+    assert all(p.result.verified for p in pts)
+    assert [p.alpha for p in pts] == pytest.approx(np.linspace(0.0, 1.0, POINTS))
+    C = np.array([p.comfort for p in pts])
+    R = np.array([p.road_holding for p in pts])
     assert np.all(np.diff(C) < 1e-9) and np.all(np.diff(R) > -1e-9)
     assert C[0] - C[-1] > 0.5 and R[-1] - R[0] > 0.5  # a real trade-off, not a point
     for i in range(POINTS):
         for j in range(POINTS):
             assert not (C[j] < C[i] - 1e-9 and R[j] < R[i] - 1e-9), (i, j)
     # the initial design, evaluated in the same model, is beaten in both goals at once
-    init = data['initial']
-    assert any(c < init['comfort'] and r < init['road_holding'] for c, r in zip(C, R))
+    init = data.initial
+    assert any(c < init.comfort and r < init.road_holding for c, r in zip(C, R))
     s = scales[0]
     for p in pts:
-        f = sum(p['weights'][t] * p['terms'][t] / s[t] for t in s)
-        assert p['objective'] == pytest.approx(f, rel=1e-12)
-        assert (p['comfort'], p['road_holding']) == pytest.approx(
-            comfort_and_road_holding(p['terms'], s), rel=1e-12
+        f = sum(p.weights[t] * p.result.terms[t] / s[t] for t in s)
+        assert p.result.objective == pytest.approx(f, rel=1e-12)
+        assert (p.comfort, p.road_holding) == pytest.approx(
+            comfort_and_road_holding(p.result.terms, s), rel=1e-12
         )
 
 
@@ -61,13 +61,14 @@ def test_reweighted_problem_equals_a_fresh_optimization(front, coarse, scales, i
     """Reusing one problem with new weights (inputs, no new setup) gives what a fresh
     problem built with those weights gives from the initial design."""
     _, data = front
-    p = data['points'][index]
-    assert p['weights'] == comfort_share_weights(coarse.terms(), p['alpha'])
-    fresh = optimize(coarse.with_weights(p['weights']), 'low', scales=scales, verify=False)
-    assert fresh['success']
+    p = data.points[index]
+    assert p.weights == comfort_share_weights(coarse.terms(), p.alpha)
+    assert p.result.weights == p.weights  # the record says what it minimized
+    fresh = optimize(coarse.with_weights(p.weights), 'low', scales=scales, verify=False)
+    assert fresh.success
     for n in coarse.design_names():
-        assert p['design'][n] == pytest.approx(fresh['design'][n], rel=1e-4), n
-    assert p['objective'] == pytest.approx(fresh['objective'], rel=1e-7)
+        assert p.result.design[n] == pytest.approx(fresh.design[n], rel=1e-4), n
+    assert p.result.objective == pytest.approx(fresh.objective, rel=1e-7)
 
 
 def test_report_rerenders_the_front(front, capsys):

@@ -45,10 +45,10 @@ def test_two_identical_scenarios_reduce_to_the_single_problem():
     one = _config([{'name': 'a'}])
     two = _config([{'name': 'a'}, {'name': 'b'}])
     r1, r2 = optimize(one, 'low'), optimize(two, 'low')
-    assert r1['success'] and r2['success']
-    for name, value in r1['design'].items():
-        assert r2['design'][name] == pytest.approx(value, rel=1e-5), name
-    assert r2['objective'] == pytest.approx(2.0 * r1['objective'], rel=1e-7)
+    assert r1.success and r2.success
+    for name, value in r1.design.items():
+        assert r2.design[name] == pytest.approx(value, rel=1e-5), name
+    assert r2.objective == pytest.approx(2.0 * r1.objective, rel=1e-7)
 
 
 def test_ipopt_sees_the_weighted_mean_and_reports_the_weighted_sum():
@@ -61,12 +61,11 @@ def test_ipopt_sees_the_weighted_mean_and_reports_the_weighted_sum():
     assert meta['total_scaler'] == pytest.approx(0.25)
     seen = []
     r = optimize(cfg, 'low', scales=scales, progress=seen.append)
-    assert r['success']
-    assert r['objective'] == pytest.approx(
-        combine(cfg, [s['objective'] for s in r['scenarios']]), rel=1e-12
-    )
-    assert r['history'][-1]['objective'] == pytest.approx(r['objective'], rel=1e-7)
-    assert seen and seen[-1].objective == pytest.approx(r['objective'], rel=1e-7)
+    assert r.success
+    assert r.objective == pytest.approx(combine(cfg, [s.objective for s in r.scenarios]), rel=1e-12)
+    assert r.history[-1].objective == pytest.approx(r.objective, rel=1e-7)
+    assert seen and seen[-1].objective == pytest.approx(r.objective, rel=1e-7)
+    assert r.aggregate == 'sum' and r.formula().startswith('f = 1 f_a + 3 f_b; f_s = ')
 
 
 @pytest.mark.slow
@@ -77,18 +76,18 @@ def test_sum_optimum_is_stationary_for_separately_built_problems(sum_optimum):
     more than the collocation tolerance — so the coupling of the scenarios through the
     shared design is right, not just each scenario."""
     cfg, scales, res = sum_optimum
-    assert res['success']
+    assert res.success
     singles = [_config([sc]) for sc in TWO]
 
     def total(design):
         return sum(
-            evaluate(c, 'low', design, scales=(s,), verify=False)['objective']
+            evaluate(c, 'low', design, scales=(s,), verify=False).objective
             for c, s in zip(singles, scales)
         )
 
-    x = res['design']
+    x = res.design
     f0 = total(x)
-    assert f0 == pytest.approx(res['objective'], rel=1e-6)
+    assert f0 == pytest.approx(res.objective, rel=1e-6)
     for name in cfg.design_names():
         var = cfg.design[name]
         h = 0.01 * (var.upper - var.lower)
@@ -108,13 +107,13 @@ def test_worst_case_bounds_every_scenario_and_beats_the_sum_optimum(sum_optimum)
     cfg, scales, res_sum = sum_optimum
     cfg_max = _config(TWO, aggregate='max')
     res_max = optimize(cfg_max, 'low', scales=scales)
-    assert res_max['success']
-    f_max = [s['objective'] for s in res_max['scenarios']]
-    f_sum = [s['objective'] for s in res_sum['scenarios']]
-    assert res_max['objective'] == pytest.approx(max(f_max), rel=1e-6)
+    assert res_max.success and res_max.aggregate == 'max'
+    f_max = [s.objective for s in res_max.scenarios]
+    f_sum = [s.objective for s in res_sum.scenarios]
+    assert res_max.objective == pytest.approx(max(f_max), rel=1e-6)
     assert max(f_max) <= max(f_sum) * (1.0 + 1e-6)
     assert sum(f_sum) <= sum(f_max) * (1.0 + 1e-6)
-    assert combine(cfg_max, f_max) == pytest.approx(res_max['objective'], rel=1e-6)
+    assert combine(cfg_max, f_max) == pytest.approx(res_max.objective, rel=1e-6)
 
 
 def test_a_short_scenarios_worst_case_row_goes_to_reverse_too():
@@ -226,13 +225,13 @@ def test_mixed_fidelity_scenarios_are_the_separate_problems():
     scales = tuple(dict.fromkeys(cfg.terms(), 1.0) for _ in cfg.scenarios())
     design = cfg.design.initial()
     both = evaluate(cfg, 'mixed', design, scales=scales, verify=False)
-    assert both['success']
+    assert both.success
     alone = [
-        evaluate(_config([sc], segments=24), 'mixed', design, scales=(scales[0],), verify=False)[
-            'objective'
-        ]
+        evaluate(
+            _config([sc], segments=24), 'mixed', design, scales=(scales[0],), verify=False
+        ).objective
         for sc in TWO
     ]
-    for rec, f in zip(both['scenarios'], alone):
-        assert rec['objective'] == pytest.approx(f, rel=1e-7), rec['name']
-    assert both['objective'] == pytest.approx(sum(alone), rel=1e-7)
+    for rec, f in zip(both.scenarios, alone):
+        assert rec.objective == pytest.approx(f, rel=1e-7), rec.name
+    assert both.objective == pytest.approx(sum(alone), rel=1e-7)

@@ -91,7 +91,7 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
         data = json.loads(json.dumps(base))
         data['maneuver']['speed'], data['road']['seed'] = speed, seed
         serial = optimize(config_from_dict(data), 'low')
-        assert rec['result']['objective'] == pytest.approx(serial['objective'], rel=1e-9, abs=0)
+        assert rec['result']['objective'] == pytest.approx(serial.objective, rel=1e-9, abs=0)
 
     # resume: nothing reruns, no record is rewritten
     stamps = {p: p.stat().st_mtime_ns for p in (out / 'tasks').glob('*/task.json')}

@@ -386,7 +386,9 @@ def test_static_equilibrium_under_the_corner_load(name, axle):
     assert np.all(np.diff(hold) > 0.0)  # rising with the travel: stable
     assert hold[400] == pytest.approx(F, rel=1e-12)
     for factor in (0.75, 1.25):
-        z = brentq(lambda z: at_rest(z, factor * F)[1][0, s.ind[0]], lo, hi, xtol=1e-14)
+        z = brentq(
+            lambda z, factor=factor: at_rest(z, factor * F)[1][0, s.ind[0]], lo, hi, xtol=1e-14
+        )
         q = at_rest(z, factor * F)[0]
         w1 = s.marker_positions(q)[0, wheel, 1] - s.marker_reference()[wheel, 1]
         w2 = np.interp(factor * F, hold, c['travel'])
@@ -755,12 +757,12 @@ def test_default_full_car_with_the_bmw_corners_verifies():
     t0 = time.perf_counter()
     rec = evaluate(cfg, 'mixed', verify=True)
     wall = time.perf_counter() - t0
-    v = rec['verification']
+    v = rec.verification
     print(
-        f'\nfull car, BMW corners, 1 s: f = {rec["objective"]:.6g} by collocation, '
+        f'\nfull car, BMW corners, 1 s: f = {rec.objective:.6g} by collocation, '
         f'verification {v}, wall time {wall:.1f} s'
     )
-    assert rec['success'] and rec['verified'] is True, v
-    assert rec['max_constraint_residual_m'] < 1e-10
-    J = rec['terms']
+    assert rec.success and rec.verified is True, v
+    assert rec.max_constraint_residual_m < 1e-10
+    J = rec.terms
     assert J['roll'] > 0.0 and np.isfinite(list(J.values())).all()

@@ -1,0 +1,387 @@
+"""The commands of the command line (``docs/commands.md``): each one takes the parsed
+arguments, runs, prints, and returns its exit code (:mod:`suspopt.cli.exits`).
+
+The heavy modules (OpenMDAO, Dymos, Matplotlib) are imported only once the arguments and
+the study file have been checked: bad input is refused at once."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from suspopt.cli.exits import FAILED, NOT_VERIFIED, OK
+from suspopt.cli.inputs import Printer, parse_design, start_design, study_config
+from suspopt.errors import ConfigError
+from suspopt.records.solve import SolveRecord
+
+
+def _error(msg: str) -> None:
+    print(f'suspopt: error: {msg}', file=sys.stderr)
+
+
+# ---------------------------------------------------------------------------- one result
+def _verdict(res: SolveRecord) -> str:
+    if not res.success:
+        return 'NOT converged'
+    if res.verified is None:
+        return 'converged, NOT checked by time marching (--no-verify)'
+    return (
+        'converged and verified by time marching'
+        if res.verified
+        else 'converged but NOT VERIFIED (collocation and time marching disagree)'
+    )
+
+
+def summary(res: SolveRecord) -> str:
+    """One result in a few lines (never a failed solve's values as a result)."""
+    d, s = res.design, res.scales
+    lines = [f'{res.fidelity}-fidelity {res.mode} ({res.method}): {_verdict(res)} — {res.status}']
+    if res.success:
+        J = res.terms or {}
+        lines += [
+            '  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+            f'  objective f = {res.objective:.6f}   '
+            + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items()),
+        ]
+    else:  # what IPOPT stopped at is not a result: never printed as one
+        stop, J = res.objective_at_stop, res.terms_at_stop or {}
+        lines += [
+            '  design at the stop (not a result)   '
+            + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
+            '  objective f: none (not converged'
+            + (f'; {stop:.6g} at the stop' if stop is not None else '')
+            + ')'
+            + (
+                '   at the stop: ' + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())
+                if J
+                else ''
+            ),
+        ]
+    lines.append(
+        f'  scales ({res.normalization}) ' + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())
+    )
+    c = res.verification.comparison
+    if c is not None:
+        lines.append(
+            f'  time marching f = {c.objective:.6f}, largest relative difference '
+            f'{c.max_rel_diff:.2g} (tolerance {c.tolerance:g}, {c.time_s:.2f} s)'
+        )
+    lines.append(f'  iterations {res.iterations}, wall time {res.wall_time_s:.2f} s')
+    return '\n'.join(lines)
+
+
+def check_result(res: SolveRecord) -> int:
+    """The exit code of one result (and its one-line message on stderr)."""
+    if not res.success:
+        _error(_not_converged(res))
+        return FAILED
+    c = res.verification.comparison
+    if res.verified is False and c is not None:
+        _error(
+            f'result NOT verified: collocation and time marching differ by '
+            f'{100 * c.max_rel_diff:.3g} % on some objective term (tolerance '
+            f'{100 * c.tolerance:g} %); the grid is too coarse for this car and road: '
+            'more --segments, or segments = "auto"'
+        )
+        return NOT_VERIFIED
+    return OK
+
+
+def _not_converged(res: SolveRecord) -> str:
+    last, best = res.last_iterate, res.best_feasible_iterate
+    nan = float('nan')
+    msg = (
+        f'IPOPT did not converge ({res.status}) after {res.iterations} iterations: last '
+        f'objective {last.objective if last else nan:.6g}, constraint violation '
+        f'{last.constraint_violation if last else nan:.2e}'
+    )
+    if best is not None:
+        msg += f'; best feasible iterate {best.iteration} f = {best.objective:.6g} at ' + ', '.join(
+            f'{k} = {v:.1f}' for k, v in best.design.items()
+        )
+    return msg
+
+
+def optimize(args: argparse.Namespace) -> int:
+    config = study_config(args)
+    import suspopt.studies.run as run
+    from suspopt.output.rundir import RunDirectory
+
+    start = start_design(args, config)
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(f'optimizing the {args.fidelity}-fidelity model; results in {out.path}')
+        res = run.optimize(
+            config,
+            args.fidelity,
+            start=start,
+            out_dir=out,
+            progress=printer.progress,
+            verify=not args.no_verify,
+        )
+    print(summary(res))
+    return check_result(res)
+
+
+def evaluate(args: argparse.Namespace) -> int:
+    config = study_config(args)
+    import suspopt.studies.run as run
+
+    design = parse_design(args.design, '--design', config) if args.design else None
+    res = run.evaluate(config, args.fidelity, design, method=args.method, verify=not args.no_verify)
+    data = res.to_json()
+    data.pop('history', None)
+    print(json.dumps(data, indent=2, default=float))
+    return check_result(res) if args.method == 'collocation' else OK
+
+
+# ---------------------------------------------------------------------------- studies
+def _results(out: Path, files: str, wall_time_s: float | None) -> None:
+    """The table on stdout, and where the results are."""
+    print((out / 'table.md').read_text())
+    print(f'results: {out}/{files} ({wall_time_s or 0.0:.1f} s)')
+
+
+def study(args: argparse.Namespace) -> int:
+    config = study_config(args)
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.run import StepFailed
+    from suspopt.studies.twostep import run_study
+
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(f'two-step study; results in {out.path}')
+        try:
+            rec = run_study(
+                config,
+                out,
+                progress=printer.progress,
+                log=printer.log,
+                verify=not args.no_verify,
+                verify_jobs=args.verify_jobs,
+            )
+        except StepFailed as err:
+            _error(f'{err}; partial results in {out.path}')
+            return FAILED
+    _results(out.path, 'study.json, table.md, figures/', rec.wall_time_s)
+    if rec.verified is False:
+        _error(rec.warnings[-1])
+        return NOT_VERIFIED
+    return OK
+
+
+def coupling(args: argparse.Namespace) -> int:
+    config = study_config(args)
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.coupling import run_coupling
+    from suspopt.studies.run import StepFailed
+
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(
+            'the coupling assumption: two-step studies with the frame on the ground and on '
+            f'the chassis, 4 designs x 3 models; results in {out.path}'
+        )
+        try:
+            rec = run_coupling(
+                config, out, progress=printer.progress, log=printer.log, verify=not args.no_verify
+            )
+        except StepFailed as err:
+            _error(f'{err}; partial results in {out.path}')
+            return FAILED
+    _results(out.path, 'coupling.json, table.md, figures/coupling.png', rec.wall_time_s)
+    if rec.verified is False:
+        _error(rec.warnings[-1])
+        return NOT_VERIFIED
+    return OK
+
+
+def pareto(args: argparse.Namespace) -> int:
+    if args.points < 2:
+        raise ConfigError(f'--points: need at least 2, got {args.points}')
+    config = study_config(args)
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.pareto import run_pareto
+
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(
+            f'Pareto front of the {args.fidelity}-fidelity model, {args.points} points; '
+            f'results in {out.path}'
+        )
+        front = run_pareto(
+            config,
+            out,
+            fidelity=args.fidelity,
+            points=args.points,
+            progress=printer.progress,
+            log=printer.log,
+            verify=not args.no_verify,
+        )
+    _results(out.path, 'pareto.json, table.md, figures/pareto.png', front.wall_time_s)
+    failed = [p for p in front.points if not p.success]
+    if failed:
+        where = ', '.join(f'{p.alpha:.3f} ({p.result.status})' for p in failed)
+        _error(f'IPOPT did not converge at comfort share(s) {where}; the other points are kept')
+        return FAILED
+    unverified = [p for p in front.points if p.result.verified is False]
+    if unverified:
+        _error(
+            'NOT verified by time marching at comfort share(s) '
+            + ', '.join(f'{p.alpha:.3f}' for p in unverified)
+        )
+        return NOT_VERIFIED
+    return OK
+
+
+def compare(args: argparse.Namespace) -> int:
+    """The topology study (suspopt.studies.compare): every topology's mixed-fidelity
+    optimum, the cross table of every optimum in every model, kinematic curves."""
+    config = study_config(args)
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.compare import exit_code, parse_topologies, run_compare, topology_config
+    from suspopt.studies.run import StepFailed
+
+    for front, rear in parse_topologies(args.mechanisms):  # bad input before any work
+        topology_config(config, front, rear)
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(f'topology study of {args.mechanisms}; results in {out.path}')
+        try:
+            rec = run_compare(
+                config,
+                out,
+                args.mechanisms,
+                progress=printer.progress,
+                log=printer.log,
+                verify=not args.no_verify,
+            )
+        except StepFailed as err:
+            _error(f'{err}; no topology can start from it; partial results in {out.path}')
+            return FAILED
+    _results(out.path, 'compare.json, table.md, figures/', rec.wall_time_s)
+    code = exit_code(rec)
+    if code == FAILED:
+        for f in rec.failures:
+            where = f.model + (f' at {f.design}' if f.design else '')
+            _error(
+                f'{f.what} failed in {where}: {f.status} {f.message}'.rstrip()
+                + '; the other results are kept'
+            )
+    elif code == NOT_VERIFIED:
+        _error(rec.warnings[-1])
+    return code
+
+
+def robust(args: argparse.Namespace) -> int:
+    config = study_config(args)
+    from suspopt.output.report import render
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.robust import run_robust
+
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(f'robust design of the {args.fidelity}-fidelity model; results in {out.path}')
+        rec = run_robust(
+            config,
+            out,
+            fidelity=args.fidelity,
+            progress=printer.progress,
+            log=printer.log,
+            verify=not args.no_verify,
+        )
+        printer.log('writing table and figure')
+        render(out.path)
+    _results(out.path, 'robust.json, table.md, figures/robustness.png', rec.wall_time_s)
+    failed = [k for k, r in rec.optima.items() if not r.success]
+    if failed:
+        _error(f'IPOPT did not converge for {", ".join(failed)}; the others are kept')
+        return FAILED
+    if rec.verified is False:
+        _error('some optimum is NOT verified by time marching (see table.md)')
+        return NOT_VERIFIED
+    return OK
+
+
+def sweep(args: argparse.Namespace) -> int:
+    """Many optimizations or studies in parallel on Dask (see suspopt.sweep)."""
+    from suspopt.sweep.runner import run_sweep
+
+    log = (lambda msg: None) if args.quiet else None
+    outcome = run_sweep(
+        args.file,
+        args.out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        retry_failed=args.retry_failed,
+        log=log,
+        worker_start=args.worker_start,
+    )
+    return outcome.exit_code
+
+
+# ---------------------------------------------------------------------------- files
+def init(args: argparse.Namespace) -> int:
+    from suspopt.spec.template import default_config_toml
+
+    path = Path(args.file)
+    if path.exists() and not args.overwrite:
+        raise ConfigError(f'{path} exists; pass --overwrite to replace it')
+    if not path.parent.is_dir():
+        raise ConfigError(f'{path}: directory {path.parent} does not exist')
+    try:
+        path.write_text(default_config_toml(args.model))
+    except OSError as err:
+        raise ConfigError(f'cannot write {path}: {err.strerror}') from None
+    what = "the paper's case" if args.model == 'half_car' else 'the default full car'
+    print(f'wrote {path} ({what}; edit it and pass --config {path})')
+    return OK
+
+
+def report(args: argparse.Namespace) -> int:
+    from suspopt.output.report import render
+
+    written = render(args.dir)
+    print((Path(args.dir) / 'table.md').read_text())
+    print('wrote ' + ', '.join(str(p) for p in written))
+    return OK
+
+
+def _travel(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    try:
+        travel = tuple(float(x) for x in text.split(','))
+    except ValueError:
+        travel = ()
+    if len(travel) != 2 or not all(math.isfinite(x) for x in travel) or not travel[0] < travel[1]:
+        raise ConfigError(f'--travel: expected MIN,MAX [m] with MIN < MAX, got {text!r}')
+    return travel[0], travel[1]
+
+
+def kinematics(args: argparse.Namespace) -> int:
+    """Kinematic curves of a suspension mechanism: table on stdout, figure and table in --out."""
+    from suspopt.multibody.kinematics import curves_table, kinematic_curves, plot_curves
+    from suspopt.multibody.mechanism import mechanism_path
+
+    travel = _travel(args.travel)
+    if args.k is not None and not (math.isfinite(args.k) and args.k > 0.0):
+        raise ConfigError(f'--k: the spring rate must be finite and > 0 N/m, got {args.k:g}')
+    if args.points < 2:
+        raise ConfigError(f'--points: need at least 2, got {args.points}')
+    curves = kinematic_curves(args.mechanism, travel, args.k, args.points)
+    table = curves_table(curves)
+    print(table)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        stem = f'kinematics_{mechanism_path(args.mechanism).stem}'
+        (out / f'{stem}.md').write_text(table)
+        figure = plot_curves(curves, out / f'{stem}.png')
+    except OSError as err:
+        raise ConfigError(f'--out: cannot write to {out}: {err.strerror}') from None
+    print(f'wrote {figure} and {out / f"{stem}.md"}')
+    return OK
