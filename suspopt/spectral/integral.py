@@ -18,6 +18,8 @@ system's matrices.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.special import sici
@@ -112,7 +114,7 @@ def spectral_variances(
     slowest and ``10³`` times the fastest eigenvalue modulus of ``A``."""
     if coherence not in ('exact', 'rational'):
         raise ConfigError(f"coherence: must be 'exact' or 'rational', got {coherence!r}")
-    pv = system.design_vector(p) if isinstance(p, dict) else np.asarray(p, dtype=float)
+    pv = system.design_vector(p) if isinstance(p, Mapping) else np.asarray(p, dtype=float)
     f = _Integrand(system, road, pv, coherence)
     eig = np.linalg.eigvals(f.A)
     if not np.all(eig.real < 0.0):

@@ -36,8 +36,8 @@ matrices (:meth:`StationaryModel.matrix_gradients`) and contracted with the affi
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -231,6 +231,10 @@ class _State:
     P: np.ndarray
     variance: np.ndarray
     solver: LyapunovSolver
+    #: of a complex step: the state at its real part; of a real state: its adjoint
+    #: solutions by weights (the complex steps of a Hessian share them)
+    real: _State | None = None
+    adjoints: dict[bytes, np.ndarray] = field(default_factory=dict)
 
 
 class StationaryModel:
@@ -321,6 +325,7 @@ class StationaryModel:
         Bcal = np.vstack([K @ rm.D_r, rm.B_z.astype(dtype)])
         Ccal = np.hstack([C, D @ rm.M])
         F = rm.intensity * (Bcal @ Bcal.T)
+        real = None
         if np.iscomplexobj(p):  # a complex step from the real design p.real
             real = self._evaluate(p.real, check=False)
             solver = real.solver
@@ -330,7 +335,7 @@ class StationaryModel:
             P = solver.solve(F)
         P = 0.5 * (P + P.T)
         var = np.einsum('ij,jk,ik->i', Ccal, P, Ccal)
-        state = _State(p.copy(), A, B, C, D, K, Acal, Bcal, Ccal, P, var, solver)
+        state = _State(p.copy(), A, B, C, D, K, Acal, Bcal, Ccal, P, var, solver, real)
         if np.iscomplexobj(p):
             self._last_step = state
         else:
@@ -340,7 +345,7 @@ class StationaryModel:
     def response(self, p: ArrayLike) -> StationaryResponse:
         """The outputs' stationary variances at design ``p`` (vector in the system's
         ``design`` order, or a mapping by name)."""
-        pv = self.system.design_vector(p) if isinstance(p, dict) else np.asarray(p)
+        pv = self.system.design_vector(p) if isinstance(p, Mapping) else np.asarray(p)
         s = self._evaluate(pv.astype(np.result_type(pv, float)))
         return StationaryResponse(self.system.outputs, s.p, s.variance, s.P)
 
@@ -376,8 +381,12 @@ class StationaryModel:
         n = self.system.n_states
         w = np.asarray(weights)
         G = (s.Ccal.T * w) @ s.Ccal
-        if np.iscomplexobj(s.Acal):
-            Lam = s.solver.solve_step(s.Acal.imag, G, adjoint=True)
+        if s.real is not None:  # a complex step: the real part is the real state's
+            key = np.ascontiguousarray(w.real, dtype=float).tobytes()
+            Lam_r = s.real.adjoints.get(key)
+            if Lam_r is None:
+                Lam_r = s.real.adjoints[key] = s.solver.solve(G.real, adjoint=True)
+            Lam = s.solver.solve_step(s.Acal.imag, G, adjoint=True, X_r=Lam_r)
         else:
             Lam = s.solver.solve(G, adjoint=True)
         Lam = 0.5 * (Lam + Lam.T)

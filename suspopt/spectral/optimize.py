@@ -222,6 +222,50 @@ def optimize_spectral(
     ``hessian``: ``'exact'`` or ``'limited-memory'``. ``ipopt_options``: further IPOPT
     options.
     """
+    from threadpoolctl import threadpool_limits
+
+    # the matrices are small (tens of states): BLAS threads only cost synchronization
+    with threadpool_limits(limits=1, user_api='blas'):
+        return _optimize(
+            system,
+            road,
+            start,
+            objective=objective,
+            lower=lower,
+            upper=upper,
+            rms_limits=rms_limits,
+            measure=measure,
+            scales=scales,
+            pade_order=pade_order,
+            pade_rtol=pade_rtol,
+            hessian=hessian,
+            tol=tol,
+            max_iter=max_iter,
+            print_level=print_level,
+            ipopt_options=ipopt_options,
+        )
+
+
+def _optimize(
+    system: AffineLinearSystem,
+    road: RandomRoad,
+    start: Mapping[str, float] | ArrayLike,
+    *,
+    objective: Mapping[str, float],
+    lower: Mapping[str, float],
+    upper: Mapping[str, float],
+    rms_limits: Mapping[str, float] | None,
+    measure: str,
+    scales: Mapping[str, float] | None,
+    pade_order: int | str,
+    pade_rtol: float,
+    hessian: str,
+    tol: float,
+    max_iter: int,
+    print_level: int,
+    ipopt_options: Mapping[str, int | float | str] | None,
+) -> SpectralOptimum:
+    """:func:`optimize_spectral` (BLAS threads limited by the caller)."""
     t0 = time.perf_counter()
     names = system.design
     p0 = system.design_vector(start, 'start').astype(float)

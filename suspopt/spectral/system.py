@@ -147,6 +147,23 @@ class AffineLinearSystem:
             self.D0 + np.tensordot(p, self.dD, axes=1),
         )
 
+    def select_outputs(self, names: Sequence[str]) -> AffineLinearSystem:
+        """The same system with only the outputs ``names`` (in that order)."""
+        rows = [self.output_index(n) for n in names]
+        return AffineLinearSystem(
+            self.A0,
+            self.B0,
+            self.C0[rows],
+            self.D0[rows],
+            self.dA,
+            self.dB,
+            self.dC[:, rows],
+            self.dD[:, rows],
+            design=self.design,
+            outputs=tuple(names),
+            corners=self.corners,
+        )
+
     def output_index(self, name: str, where: str = 'outputs') -> int:
         try:
             return self.outputs.index(name)

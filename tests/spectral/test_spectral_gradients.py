@@ -81,6 +81,45 @@ def test_full_car_weighted_gradient_matches_finite_differences(tracks):
     np.testing.assert_allclose(g * p, fd * p, rtol=1e-5, atol=1e-6 * np.abs(g * p).max())
 
 
+def test_gradient_with_design_dependent_static_response():
+    """Front and rear tracks of different width on independent tracks: one track's rise
+    warps the car, so the static response K = A⁻¹ B E depends on the springs and bars
+    (dK ≠ 0; a rigid motion, dK = 0, with equal tracks or a single reference). The warp
+    grows with the tracks' random-walk difference: travel and tyre loads have no
+    stationary variance there, the accelerations do."""
+    from spectral_vehicles import rigid_body_car
+
+    full = rigid_body_car(
+        mass=1400.0,
+        pitch_inertia=2400.0,
+        roll_inertia=550.0,
+        a=[1.35, 1.35, -1.4, -1.4],
+        y=[0.75, -0.75, 0.68, -0.68],
+        m=[45.0, 45.0, 50.0, 50.0],
+        kt=[2.5e5] * 4,
+        springs={'k1': [0, 1], 'k2': [2, 3]},
+        dampers={'c1': [0, 1], 'c2': [2, 3]},
+        bars={'kR1': (0, 1), 'kR2': (2, 3)},
+        tracks=[0, 1, 0, 1],
+    )
+    p = FULL_CAR_DESIGN
+    road = RandomRoad('C', 20.0, 'independent')
+    infinite = StationaryModel(full, road, 8).infinite_outputs(p)
+    assert len(infinite) == 8 and all(('travel' in x or 'tyre' in x) for x in infinite)
+    system = full.select_outputs(['heave_acc', 'pitch_acc', 'roll_acc'])
+    model = StationaryModel(system, road, 8)
+
+    def K(x):
+        A, B, _, _ = system.matrices(x)
+        return np.linalg.solve(A, B @ model.road_model.E)
+
+    assert np.abs(K(1.1 * p) - K(p)).max() > 1e-5 * np.abs(K(p)).max()
+    w = 1.0 / model.variances(p)
+    g = model.gradient(p, w)
+    fd = central_jacobian(lambda x: np.array([w @ model.variances(x)]), p)[0]
+    np.testing.assert_allclose(g * p, fd * p, rtol=1e-5, atol=1e-6 * np.abs(g * p).max())
+
+
 def test_matrix_gradients_for_any_parametrization():
     """⟨dA, Ā⟩ + ⟨dB, B̄⟩ + ⟨dC, C̄⟩ + ⟨dD, D̄⟩ is the change of J under a perturbation
     of the matrices outside the affine terms (here a change of the wheel masses)."""
