@@ -254,6 +254,8 @@ class StationaryModel:
         self.road_model = road_model(system.corners, road, pade_order)
         self._last: _State | None = None
         self._last_step: _State | None = None
+        #: covariances solved at real designs (cache misses), for reports
+        self.solves = 0
 
     @property
     def pade_order(self) -> int:
@@ -333,6 +335,7 @@ class StationaryModel:
         else:
             solver = LyapunovSolver(Acal)
             P = solver.solve(F)
+            self.solves += 1
         P = 0.5 * (P + P.T)
         var = np.einsum('ij,jk,ik->i', Ccal, P, Ccal)
         state = _State(p.copy(), A, B, C, D, K, Acal, Bcal, Ccal, P, var, solver, real)

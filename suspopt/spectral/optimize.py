@@ -55,9 +55,10 @@ class SpectralOptimum:
     ``design`` the optimum (by name, physical units); ``rms``/``rms_initial`` every
     output's RMS there and at the start; ``objective`` ``f`` there and at the start;
     ``success`` if IPOPT converged (``status``, ``status_message``); ``iterations``,
-    ``evaluations`` (Lyapunov solves of the response); ``constraint_multipliers`` of
-    ``Var y_j/ℓ_j² <= 1`` by output; ``bound_multipliers`` by design variable
-    (``z_upper - z_lower`` per unit of the variable: positive at an active upper bound);
+    ``evaluations`` (covariances solved for IPOPT, at distinct designs);
+    ``constraint_multipliers`` of ``Var y_j/ℓ_j² <= 1`` by output; ``bound_multipliers``
+    by design variable (``z_upper - z_lower`` per unit of the variable: positive at an
+    active upper bound);
     the Padé order used and its estimated relative RMS error; wall time.
     """
 
@@ -98,8 +99,13 @@ class _SpectralNLP:
         self.con_index, self.limits = con_index, limits
         self.n_y = len(model.system.outputs)
         self.history: list[float] = []
-        self.evaluations = 0
         self.iterations = 0
+        self._solves0 = model.solves
+
+    @property
+    def evaluations(self) -> int:
+        """Covariances solved at real designs during the solve."""
+        return self.model.solves - self._solves0
 
     def _var(self, x: np.ndarray) -> np.ndarray:
         p = x * self.x_scale
@@ -107,8 +113,6 @@ class _SpectralNLP:
             var = self.model.variances(p)
         except ModelError:
             raise cyipopt.CyIpoptEvaluationError() from None
-        if not np.iscomplexobj(p):
-            self.evaluations += 1
         return var
 
     def f_of_var(self, var: np.ndarray) -> np.ndarray:
