@@ -55,14 +55,11 @@ def _indices(meta: dict) -> np.ndarray | None:
 
 
 def nlp_layout(problem: om.Problem) -> Layout:
-    """Design variables, nonlinear constraints and the objective of ``problem``."""
+    """Design variables, constraints and the objective of ``problem`` (a constraint declared
+    linear is passed to IPOPT like any other)."""
     model = problem.model
     dvs = model.get_design_vars(recurse=True, get_sizes=True)
-    cons = {
-        k: v
-        for k, v in model.get_constraints(recurse=True, get_sizes=True).items()
-        if not v.get('linear')
-    }
+    cons = model.get_constraints(recurse=True, get_sizes=True)
     objs = model.get_objectives(recurse=True, get_sizes=True)
     if len(objs) != 1:
         raise ValueError(f'the model needs exactly one objective, has {len(objs)}')

@@ -11,8 +11,9 @@ trajectory with one Radau phase per scenario (:mod:`suspopt.transcription.phase`
   normalized weighted sum ``f_s = Σ w_k J_k / s_k``;
 * the objective ``Σ_s w_s f_s`` (``aggregate = "sum"``; IPOPT sees it divided by
   ``Σ_s w_s``) or the worst case ``t`` with ``f_s ≤ t`` (``"max"``, epigraph form);
-* :class:`~suspopt.driver.IpoptDriver` solving states and design together with the exact
-  sparse constraint Jacobian; the coloring is cached by model structure (:mod:`suspopt.cache`).
+* :class:`~suspopt.driver.IpoptDriver` as the problem's driver (``run_driver``), solving
+  states and design together with the exact sparse constraint Jacobian; the coloring is
+  cached by model structure (:mod:`suspopt.cache`).
 
 With ``optimize_design=False`` the design is held fixed and IPOPT only solves the
 collocation equations: this is how one design is *evaluated* by collocation.
@@ -216,17 +217,16 @@ class VehicleProblem:
             cached = cache.load(self.cache_key) if use_cache else None
             self.coloring_from_cache = cached is not None
             opt = config.optimizer
-            self.driver = IpoptDriver(
-                p,
+            self.driver = p.driver = IpoptDriver(
                 max_iter=opt.max_iter,
                 tol=opt.tol,
                 print_level=opt.print_level,
                 progress=progress,
                 watch=[self.design_var(n) for n in self.design_names],
                 coloring=cached,
-                opt_settings=opt.options,
                 totals=totals,
             )
+            self.driver.opt_settings.update(opt.options)
 
             self.recorder_path = None
             if recorder is not None:
@@ -409,7 +409,8 @@ class VehicleProblem:
         t2 = time.perf_counter()
         if computed and coloring is not None and self.use_cache:
             cache.store(self.cache_key, coloring)  # for other problems of this structure
-        drv.run(pinned=pinned)
+        drv.options['pinned'] = pinned
+        p.run_driver()
         t3 = time.perf_counter()
         success = drv.status in (0, 1)
         self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
