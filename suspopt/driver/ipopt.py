@@ -52,7 +52,19 @@ import numpy as np
 import openmdao.api as om
 from openmdao.core.driver import Driver, DriverResult, RecordingDebugging
 
+import suspopt.driver.structure as structure
+from suspopt.driver.dataflow import DataFlow, data_flow
+from suspopt.driver.hessian import (
+    HessianColoring,
+    PropagatedHessian,
+    color_hessian,
+    edge_values,
+    fd_hessian,
+    hessian_sparsity,
+    varying_entries,
+)
 from suspopt.driver.propagation import TOTALS_METHODS, PropagatedTotals, make_totals
+from suspopt.driver.propagation import supported as propagation_supported
 from suspopt.driver.sparsity import Coloring, Variable, compute_coloring
 from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
 
@@ -268,7 +280,14 @@ def _output_file_problems(name: str, value: Any) -> list[str]:
 LIMITED_MEMORY_OPTIONS: dict[str, Any] = {'limited_memory_aug_solver': 'extended'}
 
 #: the driver's ``hessian`` option: how IPOPT gets the Hessian of the Lagrangian
-HESSIAN_METHODS = ('limited-memory',)
+HESSIAN_METHODS = ('limited-memory', 'exact')
+
+#: relative size of the random moves of the design at which the driver compares two
+#: linearizations to find the model's nonlinear terms (:func:`hessian.varying_entries`)
+PROBE_STEP = 1e-3
+
+#: the Hessian's forward-difference step relative to max(1, |x_j|) (driver scaling)
+FD_STEP = float(np.sqrt(np.finfo(float).eps))
 
 
 @dataclass
@@ -334,10 +353,16 @@ class IpoptDriver(Driver):
         self.last_error: str | None = None
         self.interrupted = False
         self._layout: Layout | None = None
+        self._hess: HessianColoring | None = None
+        self._varying: dict | None = None
+        self._phess: PropagatedHessian | None = None
+        self._exact = False
+        self.n_hessian_evals = 0
         self._totals: ColoredTotals | PropagatedTotals | None = None
         self._nlp: cyipopt.Problem | None = None
         self._x_run: np.ndarray | None = None
         self._x_jac: np.ndarray | None = None
+        self._x_lin: np.ndarray | None = None
         self._eval_failed = False
         self._t0 = time.perf_counter()
 
@@ -349,7 +374,8 @@ class IpoptDriver(Driver):
             'hessian',
             default='limited-memory',
             values=HESSIAN_METHODS,
-            desc="the Hessian of the Lagrangian: IPOPT's L-BFGS approximation",
+            desc="the Hessian of the Lagrangian: IPOPT's L-BFGS approximation, or 'exact' "
+            '(finite differences of its propagated gradient along Hessian colors)',
         )
         self.options.declare(
             'totals',
@@ -393,7 +419,8 @@ class IpoptDriver(Driver):
             self._layout is not None
             and problem.model.get_nonlinear_vectors()[1] is not self._outputs
         ):
-            self._layout = self._totals = None  # set up again: new vectors
+            self._layout = self._totals = self._hess = self._phess = None  # new vectors
+            self._varying = None
 
     @property
     def problem(self) -> om.Problem:
@@ -492,7 +519,6 @@ class IpoptDriver(Driver):
                 raise cyipopt.CyIpoptEvaluationError()
             return
         self._x_run = x.copy()
-        self._x_jac = None
         self._eval_failed = False
         try:
             self._run_model_at(x)
@@ -516,9 +542,10 @@ class IpoptDriver(Driver):
         return self._totals.compute()
 
     def _jacobian_values(self, x: np.ndarray) -> None:
-        self._evaluate(x)
         if self._x_jac is not None and np.array_equal(x, self._x_jac):
             return
+        self._evaluate(x)
+        self._x_lin = None
         try:
             g, jac = self._compute_derivatives()
         except om.AnalysisError as err:
@@ -531,6 +558,7 @@ class IpoptDriver(Driver):
             raise cyipopt.CyIpoptEvaluationError()
         self._grad, self._jac = grad, jac
         self._x_jac = x.copy()
+        self._x_lin = x.copy()  # where the totals' linearization is
         if 'totals' in self.options['debug_print']:
             self._print_totals()
 
@@ -622,6 +650,111 @@ class IpoptDriver(Driver):
                     pass
         self.iter_count += 1
 
+    # ------------------------------------------------------------------ Hessian
+    def _flow(self) -> DataFlow | None:
+        """The model's data flow to the responses, where the driver can read it."""
+        if isinstance(self._totals, PropagatedTotals):
+            return self._totals.flow
+        if not structure.supported():
+            return None
+        lay = self.layout()
+        flow = data_flow(self.problem, [v.source for v in lay.constraints] + [lay.objective.source])
+        return flow if propagation_supported(flow) else None
+
+    def hessian_coloring(self) -> HessianColoring | None:
+        """The Hessian of the Lagrangian's pattern and coloring (:mod:`suspopt.driver.hessian`),
+        computed once per setup; None where the model's data flow is not available
+        (implicit components, cycles, an untested OpenMDAO version)."""
+        if self._hess is None:
+            flow = self._flow()
+            if flow is None:
+                return None
+            self._varying = self._varying_entries(flow)
+            pattern = hessian_sparsity(flow, self.layout().design_vars, self._varying)
+            self._hess = color_hessian(pattern)
+        return self._hess
+
+    def _varying_entries(self, flow: DataFlow) -> dict | None:
+        """The declared partial entries that differ between linearizations at two random
+        points near the current design (None if the model fails there); the model is left
+        as it was."""
+        data = self._outputs.asarray()
+        saved = data[self._dv_pos].copy()
+        x0 = self.scaled_design()
+        rng = np.random.default_rng(20120301)
+        snapshots = []
+        try:
+            for step in (PROBE_STEP, PROBE_STEP, PROBE_STEP / 10, PROBE_STEP / 10):
+                x = x0 + step * np.maximum(1.0, np.abs(x0)) * rng.standard_normal(x0.size)
+                try:
+                    self._run_model_at(x)
+                    self.problem.model.run_linearize()
+                except om.AnalysisError:
+                    continue
+                snapshots.append(edge_values(flow))
+                if len(snapshots) == 2:
+                    return varying_entries(*snapshots)
+            return None
+        finally:
+            data[self._dv_pos] = saved
+            self.problem.model.run_solve_nonlinear()
+            self._x_run = None
+
+    def hessian(self, x: np.ndarray, lam: np.ndarray, obj_factor: float) -> np.ndarray:
+        """IPOPT's Hessian of the Lagrangian ``σ ∇²f + Σ λ_i ∇²c_i`` (driver scaling) at the
+        nonzeros of :meth:`hessianstructure`: its products with each Hessian color's
+        forward-difference steps, by second-order adjoints
+        (:class:`~suspopt.driver.hessian.PropagatedHessian`) where the totals are
+        propagated, else by differences of the gradient of the whole model."""
+        assert self._hess is not None and self._totals is not None
+        self._evaluate(x)
+        w_obj = float(obj_factor) * self._obj_scaler
+        w_con = np.asarray(lam) * self._con_scaler
+        self.n_hessian_evals += 1
+        if self._phess is not None:
+            h = FD_STEP * np.maximum(1.0, np.abs(x))
+            try:
+                at_x = self._x_lin is not None and np.array_equal(x, self._x_lin)
+                products = self._phess.compute(h / self._dv_scaler, w_obj, w_con, at_x)
+                self._x_lin = x.copy()
+            except om.AnalysisError as err:
+                self.last_error = str(err)
+                self._x_run = self._x_lin = None
+                raise cyipopt.CyIpoptEvaluationError() from None
+            products /= self._dv_scaler
+            if not np.all(np.isfinite(products)):
+                self.last_error = 'the Hessian contains NaN or inf'
+                raise cyipopt.CyIpoptEvaluationError()
+            return self._hess.recover(products, h)
+        return self._fd_hessian(x, w_obj, w_con)
+
+    def _fd_hessian(self, x: np.ndarray, w_obj: float, w_con: np.ndarray) -> np.ndarray:
+        """The Hessian by forward differences of the Lagrangian gradient of the whole model
+        (run, linearized and differentiated again at each color's step)."""
+        assert self._hess is not None and self._totals is not None
+        totals = self._totals
+        self._x_lin = None
+
+        def gradient(xp: np.ndarray) -> np.ndarray:
+            if xp is not x:
+                self._x_run = None  # the model moves off x
+                try:
+                    self._run_model_at(xp)
+                except om.AnalysisError as err:
+                    self.last_error = str(err)
+                    raise cyipopt.CyIpoptEvaluationError() from None
+            g = totals.lagrangian_gradient(w_obj, w_con) / self._dv_scaler
+            if not np.all(np.isfinite(g)):
+                self.last_error = 'the Lagrangian gradient contains NaN or inf'
+                raise cyipopt.CyIpoptEvaluationError()
+            return g
+
+        return fd_hessian(gradient, x, self._hess, rel_step=FD_STEP)
+
+    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]:
+        assert self._hess is not None
+        return self._hess.rows, self._hess.cols
+
     # ------------------------------------------------------------------ run
     def prepare(self) -> None:
         """Read the layout, get the coloring and set up the colored totals (done by
@@ -629,7 +762,6 @@ class IpoptDriver(Driver):
         lay = self.layout()
         self.history = []
         self.status, self.status_message, self.last_error = None, '', None
-        self.n_function_evals = self.n_gradient_evals = 0
         self.interrupted = False
         self._x_run = self._x_jac = None
         self._eval_failed = False
@@ -637,20 +769,36 @@ class IpoptDriver(Driver):
         coloring = self.total_coloring()
         if self._totals is None or self._totals.coloring is not coloring:
             self._totals = make_totals(self.problem, lay, coloring, self.options['totals'])
+        self._exact = self.options['hessian'] == 'exact'
+        self._phess = None
+        if self._exact and self.hessian_coloring() is None:
+            om.issue_warning(
+                f"{self.msginfo}: hessian='exact' needs the model's data flow (explicit "
+                'components, no cycle, a tested OpenMDAO version); using limited-memory',
+                category=om.DriverWarning,
+            )
+            self._exact = False
+        if self._exact and isinstance(self._totals, PropagatedTotals) and self._varying:
+            assert self._hess is not None
+            self._phess = PropagatedHessian(self.problem, self._totals, self._hess, self._varying)
+        self.n_hessian_evals = 0
         if coloring is not None:
             self._jrows, self._jcols = coloring.rows, coloring.cols
         else:  # no constraints
             self._jrows = self._jcols = np.zeros(0, dtype=np.int64)
         self._jac_scaler = self._con_scaler[self._jrows] / self._dv_scaler[self._jcols]
+        self.n_function_evals = self.n_gradient_evals = 0
+        self._x_run = self._x_jac = self._x_lin = None
 
     def _ipopt_options(self) -> dict[str, Any]:
         opts: dict[str, Any] = {
             'max_iter': self.options['max_iter'],
             'tol': self.options['tol'],
             'print_level': self.options['print_level'],
-            'hessian_approximation': 'limited-memory',
+            'hessian_approximation': 'exact' if self._exact else 'limited-memory',
         }
-        opts.update(LIMITED_MEMORY_OPTIONS)
+        if not self._exact:
+            opts.update(LIMITED_MEMORY_OPTIONS)
         return opts
 
     def _check_desvar_bounds(self, x0: np.ndarray, pinned: list[str]) -> None:
@@ -737,7 +885,7 @@ class IpoptDriver(Driver):
         return self.status not in (0, 1)
 
     def _callbacks(self) -> _Callbacks:
-        return _Callbacks(self)
+        return _CallbacksWithHessian(self) if self._exact else _Callbacks(self)
 
     def get_exit_status(self) -> str:
         """IPOPT's status name (e.g. ``Solve_Succeeded``), or ``NOT_RUN``."""
@@ -758,6 +906,13 @@ class _Callbacks:
         self.jacobian = driver.jacobian
         self.jacobianstructure = driver.jacobianstructure
         self.intermediate = driver.intermediate
+
+
+class _CallbacksWithHessian(_Callbacks):
+    def __init__(self, driver: IpoptDriver):
+        super().__init__(driver)
+        self.hessian = driver.hessian
+        self.hessianstructure = driver.hessianstructure
 
 
 def _cat(metas: list[dict], variables: list[Variable], key: str, default: float) -> np.ndarray:

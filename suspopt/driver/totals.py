@@ -145,3 +145,17 @@ class ColoredTotals:
         d_out.asarray()[self._obj_out] = -1.0
         model.run_solve_linear('rev')
         return d_res.asarray()[self._dv_res].copy(), jac
+
+    def lagrangian_gradient(self, w_obj: float, w_con: np.ndarray) -> np.ndarray:
+        """``w_obj ∇f + Σ_i w_con[i] ∇c_i`` (unscaled, (n,)) at the model's current point:
+        one linearization and one reverse solve."""
+        model = self.problem.model
+        model.run_linearize()
+        d_out, d_res = self._d_out, self._d_res
+        d_res.set_val(0.0)
+        d_out.set_val(0.0)
+        seed = d_out.asarray()
+        np.subtract.at(seed, self._obj_out, w_obj)
+        np.subtract.at(seed, self._con_out, w_con)
+        model.run_solve_linear('rev')
+        return d_res.asarray()[self._dv_res].copy()

@@ -127,3 +127,86 @@ def test_an_initial_design_outside_its_bounds_follows_invalid_desvar_behavior(be
     else:
         with pytest.warns(om.DriverWarning, match='x are out of their bounds'):
             assert p.run_driver().success
+
+
+def test_exact_hessian_of_a_quadratic_and_the_recorder_at_ipopts_iterates(tmp_path):
+    """f's Hessian is [[2, 1], [1, 2]] (IPOPT's lower triangle, driver scaling = 1); with it
+    IPOPT needs fewer iterations than with L-BFGS. Its finite differences move the model
+    off IPOPT's iterate, and each recorded case is still IPOPT's iterate."""
+    path = tmp_path / 'cases.sql'
+    p = _problem(x0=(40.0, 40.0), hessian='exact')
+    p.driver.add_recorder(om.SqliteRecorder(str(path)))
+    p.final_setup()
+    p.driver.prepare()
+    rows, cols = p.driver.hessianstructure()
+    H = np.zeros((2, 2))
+    H[rows, cols] = p.driver.hessian(np.array([1.0, 2.0]), np.zeros(0), 1.0)
+    np.testing.assert_allclose(H, [[2.0, 0.0], [1.0, 2.0]], rtol=1e-6, atol=1e-7)
+    assert p.run_driver().success
+    p.cleanup()
+    history = p.driver.history
+    lbfgs = _problem(x0=(40.0, 40.0))
+    lbfgs.run_driver()
+    assert p.driver.n_hessian_evals > 0
+    assert history[-1].iteration < lbfgs.driver.history[-1].iteration
+    cases = om.CaseReader(str(path)).get_cases('driver', recurse=False)
+    f = [float(c.get_objectives()['f'][0]) for c in cases]
+    np.testing.assert_allclose(f, [h.objective for h in history], rtol=1e-12)
+    np.testing.assert_allclose([p.get_val('x')[0], p.get_val('y')[0]], [20 / 3, -22 / 3])
+
+
+class Implicit(om.ImplicitComponent):
+    """r = y - x² = 0 (an implicit component: no propagated totals, no exact Hessian)."""
+
+    def setup(self):
+        self.add_input('x', 1.0)
+        self.add_output('y', 1.0)
+        self.declare_partials('y', ['x', 'y'])
+
+    def apply_nonlinear(self, inputs, outputs, residuals):
+        residuals['y'] = outputs['y'] - inputs['x'] ** 2
+
+    def solve_nonlinear(self, inputs, outputs):
+        outputs['y'] = inputs['x'] ** 2
+
+    def linearize(self, inputs, outputs, J):
+        J['y', 'x'] = -2.0 * inputs['x']
+        J['y', 'y'] = 1.0
+
+
+def test_exact_hessian_falls_back_to_lbfgs_where_the_data_flow_is_not_read():
+    p = om.Problem(reports=False)
+    p.model.add_subsystem('c', Implicit(), promotes=['*'])
+    p.model.add_subsystem('f', om.ExecComp('f = (y - 2)**2'), promotes=['*'])
+    p.model.linear_solver = om.DirectSolver()
+    p.model.add_design_var('x', lower=0.0, upper=3.0)
+    p.model.add_objective('f')
+    p.driver = IpoptDriver(hessian='exact')
+    p.setup()
+    with pytest.warns(om.DriverWarning, match='using limited-memory'):
+        assert p.run_driver().success
+    assert p.driver.n_hessian_evals == 0
+    np.testing.assert_allclose(p.get_val('x')[0], np.sqrt(2.0), rtol=1e-6)
+
+
+def test_a_case_is_recorded_at_ipopts_iterate_even_if_the_model_was_run_elsewhere(tmp_path):
+    """IPOPT may have evaluated other points after accepting its iterate (a watchdog step,
+    the Hessian's differences): the driver runs the model at the iterate to record it."""
+
+    class Iterate:  # what cyipopt tells during a solve
+        def get_current_iterate(self, scaled):
+            return {'x': np.array([1.0, 2.0])}
+
+    path = tmp_path / 'cases.sql'
+    p = _problem()
+    p.driver.add_recorder(om.SqliteRecorder(str(path)))
+    p.final_setup()
+    drv = p.driver
+    drv.prepare()
+    drv.objective(np.array([5.0, -3.0]))  # the model elsewhere
+    drv._nlp = Iterate()
+    drv.intermediate(0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0)
+    p.cleanup()
+    (case,) = om.CaseReader(str(path)).get_cases('driver', recurse=False)
+    # f(1, 2) = 4 + 2 + 36 - 3
+    assert float(case.get_objectives()['f'][0]) == 39.0
