@@ -28,8 +28,10 @@ per color — on a pattern and a coloring derived from the model's structure:
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import openmdao.api as om
@@ -150,6 +152,76 @@ class HessianColoring:
         """The lower triangle's values from ``products`` (colors × n: the difference of
         the gradient along each color's steps) and the steps ``h`` (n,)."""
         return products[self.source_color, self.source_row] / h[self.step_col]
+
+
+@dataclass
+class HessianStructure:
+    """What the exact Hessian needs beyond the values, computed once per model structure:
+    the nonlinear declared partial entries (:func:`varying_entries`) and the pattern's
+    coloring. Saved and loaded like :class:`~suspopt.driver.sparsity.Coloring` (the
+    coloring cache, :mod:`suspopt.cache`)."""
+
+    coloring: HessianColoring
+    varying: dict[EdgeKey, np.ndarray]
+
+    def save(self, path: str | Path) -> None:
+        c = self.coloring
+        keys = list(self.varying)
+        masks = [np.asarray(self.varying[k], dtype=bool) for k in keys]
+        with open(path, 'wb') as fh:
+            np.savez(
+                fh,
+                n=np.asarray(c.n),
+                rows=c.rows,
+                cols=c.cols,
+                colors=c.colors,
+                source_color=c.source_color,
+                source_row=c.source_row,
+                step_col=c.step_col,
+                edges=np.asarray(json.dumps([[o, k] for o, k in keys])),
+                mask_sizes=np.asarray([m.size for m in masks], dtype=np.int64),
+                masks=np.concatenate(masks) if masks else np.zeros(0, dtype=bool),
+            )
+
+    @classmethod
+    def load(cls, path: str | Path) -> HessianStructure:
+        with np.load(path) as d:
+            coloring = HessianColoring(
+                n=int(d['n']),
+                rows=d['rows'],
+                cols=d['cols'],
+                colors=d['colors'],
+                source_color=d['source_color'],
+                source_row=d['source_row'],
+                step_col=d['step_col'],
+            )
+            keys = [(str(o), int(k)) for o, k in json.loads(str(d['edges']))]
+            masks = np.split(d['masks'], np.cumsum(d['mask_sizes'])[:-1]) if keys else []
+        return cls(coloring=coloring, varying=dict(zip(keys, masks)))
+
+    def matches(self, flow: DataFlow, n: int) -> bool:
+        """True if this structure belongs to ``flow`` with ``n`` variables (a cached one
+        may be stale)."""
+        if self.coloring.n != n:
+            return False
+        for (o, k), mask in self.varying.items():
+            edges = flow.deps.get(o)
+            if edges is None or k >= len(edges) or edges[k].rows.size != mask.size:
+                return False
+        return True
+
+
+def hessian_structure(
+    flow: DataFlow, wrt: list[Variable], varying: dict | None
+) -> HessianStructure:
+    """The pattern's coloring and the nonlinear entries (None: every declared entry)."""
+    if varying is None:
+        varying = {
+            (o, k): np.ones(e.rows.size, dtype=bool)
+            for o, edges in flow.deps.items()
+            for k, e in enumerate(edges)
+        }
+    return HessianStructure(color_hessian(hessian_sparsity(flow, wrt, varying)), varying)
 
 
 def _own_color_rows(row_nnz: np.ndarray) -> np.ndarray:

@@ -15,9 +15,11 @@ public metadata and drives the model by public calls (``run_solve_nonlinear``, a
   (:mod:`suspopt.driver.sparsity`); its values come from one forward solve per color,
   gathered straight into IPOPT's nonzeros (no dense (m, n) array), driver-scaled there;
 * the objective gradient comes from one reverse solve on the same linearization;
-* the Hessian is approximated by IPOPT (limited-memory BFGS), its low-rank update kept
-  in IPOPT's augmented system (``limited_memory_aug_solver = extended``, see
-  :data:`LIMITED_MEMORY_OPTIONS`);
+* the Hessian of the Lagrangian is approximated by IPOPT (limited-memory BFGS), its
+  low-rank update kept in IPOPT's augmented system (``limited_memory_aug_solver =
+  extended``, see :data:`LIMITED_MEMORY_OPTIONS`), or, with ``hessian = 'exact'``, given
+  to IPOPT on a sparsity pattern derived from the model's structure, its values by
+  second-order adjoints along a symmetric coloring (:mod:`suspopt.driver.hessian`);
 * a model evaluation that fails (``AnalysisError``, non-finite values) is reported to IPOPT
   as an evaluation error, so IPOPT backtracks instead of aborting;
 * every accepted iteration is recorded by the driver's recorders (``record_iteration``,
@@ -56,11 +58,11 @@ import suspopt.driver.structure as structure
 from suspopt.driver.dataflow import DataFlow, data_flow
 from suspopt.driver.hessian import (
     HessianColoring,
+    HessianStructure,
     PropagatedHessian,
-    color_hessian,
     edge_values,
     fd_hessian,
-    hessian_sparsity,
+    hessian_structure,
     varying_entries,
 )
 from suspopt.driver.propagation import TOTALS_METHODS, PropagatedTotals, make_totals
@@ -315,7 +317,10 @@ class IpoptDriver(Driver):
     arguments):
 
     * ``max_iter``, ``tol``, ``print_level``: IPOPT's options of the same names;
-    * ``hessian``: ``'limited-memory'`` (IPOPT's L-BFGS approximation);
+    * ``hessian``: the Hessian of the Lagrangian: ``'limited-memory'`` (IPOPT's L-BFGS
+      approximation) or ``'exact'`` (:mod:`suspopt.driver.hessian`: its pattern from the
+      model's structure, its values by second-order adjoints along Hessian colors; L-BFGS
+      with a warning where the model's data flow cannot be read);
     * ``totals``: how the total derivatives are computed
       (:data:`~suspopt.driver.propagation.TOTALS_METHODS`; ``'auto'`` propagates every
       color at once where the model allows it);
@@ -330,7 +335,7 @@ class IpoptDriver(Driver):
     ``opt_settings`` (a dict, as on OpenMDAO's other drivers) holds further raw IPOPT
     options. After a run: :attr:`status`, :attr:`status_message`, :attr:`history`,
     :attr:`interrupted`, :attr:`last_error`, :attr:`n_function_evals`,
-    :attr:`n_gradient_evals`.
+    :attr:`n_gradient_evals`, :attr:`n_hessian_evals`.
     """
 
     def __init__(self, **kwargs: Any):
@@ -354,7 +359,6 @@ class IpoptDriver(Driver):
         self.interrupted = False
         self._layout: Layout | None = None
         self._hess: HessianColoring | None = None
-        self._varying: dict | None = None
         self._phess: PropagatedHessian | None = None
         self._exact = False
         self.n_hessian_evals = 0
@@ -375,7 +379,7 @@ class IpoptDriver(Driver):
             default='limited-memory',
             values=HESSIAN_METHODS,
             desc="the Hessian of the Lagrangian: IPOPT's L-BFGS approximation, or 'exact' "
-            '(finite differences of its propagated gradient along Hessian colors)',
+            '(second-order adjoints along Hessian colors, suspopt.driver.hessian)',
         )
         self.options.declare(
             'totals',
@@ -390,6 +394,15 @@ class IpoptDriver(Driver):
             allow_none=True,
             recordable=False,
             desc='the constraint Jacobian coloring (None: computed on the first run)',
+        )
+        self.options.declare(
+            'hessian_structure',
+            default=None,
+            types=HessianStructure,
+            allow_none=True,
+            recordable=False,
+            desc="with hessian='exact': its nonlinear terms and coloring (None: computed "
+            'on the first run)',
         )
         self.options.declare(
             'progress',
@@ -420,7 +433,6 @@ class IpoptDriver(Driver):
             and problem.model.get_nonlinear_vectors()[1] is not self._outputs
         ):
             self._layout = self._totals = self._hess = self._phess = None  # new vectors
-            self._varying = None
 
     @property
     def problem(self) -> om.Problem:
@@ -661,18 +673,21 @@ class IpoptDriver(Driver):
         flow = data_flow(self.problem, [v.source for v in lay.constraints] + [lay.objective.source])
         return flow if propagation_supported(flow) else None
 
-    def hessian_coloring(self) -> HessianColoring | None:
-        """The Hessian of the Lagrangian's pattern and coloring (:mod:`suspopt.driver.hessian`),
-        computed once per setup; None where the model's data flow is not available
-        (implicit components, cycles, an untested OpenMDAO version)."""
-        if self._hess is None:
-            flow = self._flow()
-            if flow is None:
-                return None
-            self._varying = self._varying_entries(flow)
-            pattern = hessian_sparsity(flow, self.layout().design_vars, self._varying)
-            self._hess = color_hessian(pattern)
-        return self._hess
+    def hessian_structure(self) -> HessianStructure | None:
+        """The Hessian of the Lagrangian's nonlinear terms and coloring
+        (:mod:`suspopt.driver.hessian`): the ``hessian_structure`` option if it fits the
+        model, else computed (once, and kept there); None where the model's data flow is
+        not available (implicit components, cycles, an untested OpenMDAO version)."""
+        self._set_up_totals()
+        flow = self._flow()
+        if flow is None:
+            return None
+        hs = self.options['hessian_structure']
+        if hs is None or not hs.matches(flow, self.layout().n):
+            varying = self._varying_entries(flow)
+            hs = hessian_structure(flow, self.layout().design_vars, varying)
+            self.options['hessian_structure'] = hs
+        return hs
 
     def _varying_entries(self, flow: DataFlow) -> dict | None:
         """The declared partial entries that differ between linearizations at two random
@@ -759,28 +774,32 @@ class IpoptDriver(Driver):
     def prepare(self) -> None:
         """Read the layout, get the coloring and set up the colored totals (done by
         :meth:`run`; after it the cyipopt callbacks can be called directly)."""
-        lay = self.layout()
+        self.layout()
         self.history = []
         self.status, self.status_message, self.last_error = None, '', None
         self.interrupted = False
         self._x_run = self._x_jac = None
         self._eval_failed = False
         self._t0 = time.perf_counter()
-        coloring = self.total_coloring()
-        if self._totals is None or self._totals.coloring is not coloring:
-            self._totals = make_totals(self.problem, lay, coloring, self.options['totals'])
+        coloring = self._set_up_totals()
         self._exact = self.options['hessian'] == 'exact'
-        self._phess = None
-        if self._exact and self.hessian_coloring() is None:
+        hs = self.hessian_structure() if self._exact else None
+        if self._exact and hs is None:
             om.issue_warning(
                 f"{self.msginfo}: hessian='exact' needs the model's data flow (explicit "
                 'components, no cycle, a tested OpenMDAO version); using limited-memory',
                 category=om.DriverWarning,
             )
             self._exact = False
-        if self._exact and isinstance(self._totals, PropagatedTotals) and self._varying:
-            assert self._hess is not None
-            self._phess = PropagatedHessian(self.problem, self._totals, self._hess, self._varying)
+        self._hess = None if hs is None else hs.coloring
+        if hs is None or not isinstance(self._totals, PropagatedTotals):
+            self._phess = None
+        elif (
+            self._phess is None
+            or self._phess.coloring is not hs.coloring
+            or self._phess.totals is not self._totals
+        ):
+            self._phess = PropagatedHessian(self.problem, self._totals, hs.coloring, hs.varying)
         self.n_hessian_evals = 0
         if coloring is not None:
             self._jrows, self._jcols = coloring.rows, coloring.cols
@@ -789,6 +808,15 @@ class IpoptDriver(Driver):
         self._jac_scaler = self._con_scaler[self._jrows] / self._dv_scaler[self._jcols]
         self.n_function_evals = self.n_gradient_evals = 0
         self._x_run = self._x_jac = self._x_lin = None
+
+    def _set_up_totals(self) -> Coloring | None:
+        """The coloring and the total-derivative engine for it (once)."""
+        coloring = self.total_coloring()
+        if self._totals is None or self._totals.coloring is not coloring:
+            self._totals = make_totals(
+                self.problem, self.layout(), coloring, self.options['totals']
+            )
+        return coloring
 
     def _ipopt_options(self) -> dict[str, Any]:
         opts: dict[str, Any] = {

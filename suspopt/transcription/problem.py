@@ -106,6 +106,35 @@ def mount_poses(layout, values: dict[str, np.ndarray]) -> tuple[np.ndarray, ...]
     )
 
 
+#: the Hessians of the Lagrangian a problem can give IPOPT
+HESSIANS = ('limited-memory', 'exact', 'auto')
+
+
+#: the fewest segments (over all scenarios) for which ``'auto'`` takes the exact Hessian
+AUTO_EXACT_MIN_SEGMENTS = 200
+
+
+def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = True) -> str:
+    """The Hessian ``hessian='auto'`` stands for: ``'exact'`` for optimizing the
+    low-fidelity half car on at least :data:`AUTO_EXACT_MIN_SEGMENTS` segments in all
+    (long roads, several scenarios), where its fewer iterations on a sparse KKT system
+    beat L-BFGS's cheaper but more numerous ones; IPOPT's L-BFGS (``'limited-memory'``)
+    otherwise: the full car (denser node blocks make each exact step dearer than the
+    iterations it saves), the mixed fidelity (the multibody partials are finite
+    differences already), short roads (about even), and evaluations (a fixed design:
+    the collocation equations alone). ``benchmarks/ipopt_iterations.py --hessian
+    limited-memory,exact,auto`` measures both on every case."""
+    segments = sum(sc.segments for sc in config.scenarios())
+    if (
+        optimize_design
+        and fidelity == 'low'
+        and config.vehicle.model == 'half_car'
+        and segments >= AUTO_EXACT_MIN_SEGMENTS
+    ):
+        return 'exact'
+    return 'limited-memory'
+
+
 class VehicleProblem:
     """A set-up problem of one fidelity for one study description (all its scenarios).
 
@@ -121,6 +150,10 @@ class VehicleProblem:
     use_cache : reuse/save the total coloring in the coloring cache.
     totals : how the driver computes total derivatives
         (:data:`suspopt.driver.propagation.TOTALS_METHODS`).
+    hessian : the Hessian of the Lagrangian IPOPT uses (:data:`HESSIANS`):
+        ``'limited-memory'`` (IPOPT's L-BFGS), ``'exact'`` (second-order adjoints of the
+        model's nonlinear components, :mod:`suspopt.driver.hessian`), or ``'auto'``
+        (:func:`auto_hessian`).
     """
 
     def __init__(
@@ -134,6 +167,7 @@ class VehicleProblem:
         progress: Callable[[IterationInfo], None] | None = None,
         use_cache: bool = True,
         totals: str = 'auto',
+        hessian: str = 'auto',
     ):
         if fidelity not in FIDELITIES:
             raise ValueError(f'fidelity must be one of {FIDELITIES}, got {fidelity!r}')
@@ -217,6 +251,11 @@ class VehicleProblem:
             cached = cache.load(self.cache_key) if use_cache else None
             self.coloring_from_cache = cached is not None
             opt = config.optimizer
+            if hessian not in HESSIANS:
+                raise ValueError(f'hessian must be one of {HESSIANS}, got {hessian!r}')
+            if hessian == 'auto':
+                hessian = auto_hessian(config, fidelity, optimize_design)
+            self.hessian = hessian
             self.driver = p.driver = IpoptDriver(
                 max_iter=opt.max_iter,
                 tol=opt.tol,
@@ -225,6 +264,10 @@ class VehicleProblem:
                 watch=[self.design_var(n) for n in self.design_names],
                 coloring=cached,
                 totals=totals,
+                hessian=hessian,
+                hessian_structure=(
+                    cache.load_hessian(self.cache_key) if use_cache and hessian == 'exact' else None
+                ),
             )
             self.driver.opt_settings.update(opt.options)
 
@@ -404,17 +447,24 @@ class VehicleProblem:
                 'bound.t', max(self.scenario_objective(i) for i in range(len(self.scenarios)))
             )
         t1 = time.perf_counter()
+        c1 = time.process_time()
         computed = drv.coloring is None
         coloring = drv.total_coloring()
-        t2 = time.perf_counter()
         if computed and coloring is not None and self.use_cache:
             cache.store(self.cache_key, coloring)  # for other problems of this structure
+        if self.hessian == 'exact':
+            given = drv.options['hessian_structure']
+            hs = drv.hessian_structure()
+            if hs is not None and hs is not given and self.use_cache:
+                cache.store(self.cache_key, hs)
+        t2 = time.perf_counter()
+        c2 = time.process_time()
         drv.options['pinned'] = pinned
         p.run_driver()
         t3 = time.perf_counter()
         success = drv.status in (0, 1)
         self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
-        times = {'coloring_s': t2 - t1, 'solve_s': t3 - t2 + (t1 - t0)}
+        times = {'coloring_s': t2 - t1, 'coloring_cpu_s': c2 - c1, 'solve_s': t3 - t2 + (t1 - t0)}
         msg = drv.status_message
         if drv.last_error and not success:
             msg += f' (last model error: {drv.last_error})'

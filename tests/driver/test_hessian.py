@@ -216,7 +216,7 @@ def test_probing_the_nonlinear_terms_leaves_the_model_as_it_was():
         before = vp.problem.model.get_nonlinear_vectors()[1].asarray().copy()
         vp.driver.prepare()
         after = vp.problem.model.get_nonlinear_vectors()[1].asarray()
-        assert vp.driver._varying
+        assert vp.driver.options['hessian_structure'].varying
         np.testing.assert_array_equal(after, before)
 
 
@@ -247,3 +247,54 @@ def test_optimum_with_the_exact_hessian_is_the_lbfgs_one(aggregate):
     assert abs(a.objective - b.objective) < 1e-8 * abs(a.objective)
     for k in a.design:
         assert abs(a.design[k] / b.design[k] - 1) < 1e-4, k
+
+
+def test_auto_takes_the_exact_hessian_for_long_or_several_half_car_roads():
+    """What benchmarks/ipopt_iterations.py measured: exact for the low-fidelity half car
+    on 200 segments or more in all, L-BFGS for the rest."""
+    from suspopt.transcription.problem import AUTO_EXACT_MIN_SEGMENTS, auto_hessian
+
+    def half(segments, n=1):
+        scenarios = [{'name': f's{i}', 'speed': 8.0 + i} for i in range(n)]
+        return config_from_dict({'transcription': {'segments': segments}, 'scenario': scenarios})
+
+    assert AUTO_EXACT_MIN_SEGMENTS == 200
+    assert auto_hessian(half(80), 'low') == 'limited-memory'  # the paper's road
+    assert auto_hessian(half(200), 'low') == 'exact'
+    assert auto_hessian(half(100, 2), 'low') == 'exact'  # a robust design
+    assert auto_hessian(half(640), 'mixed') == 'limited-memory'
+    assert auto_hessian(half(640), 'low', optimize_design=False) == 'limited-memory'
+    full = full_car_defaults()
+    full = full.replace(transcription=dataclasses.replace(full.transcription, segments=250))
+    assert auto_hessian(full, 'low') == 'limited-memory'
+
+
+def test_hessian_structure_round_trips_through_the_cache(tmp_path, monkeypatch):
+    """The first problem computes the Hessian's structure and caches it; a second one of
+    the same structure starts from the cache and reaches the same optimum; a structure
+    that does not fit the model is recomputed."""
+    from suspopt import cache
+    from suspopt.driver.hessian import HessianStructure
+
+    monkeypatch.setenv('SUSPOPT_CACHE_DIR', str(tmp_path))
+    cfg = config_from_dict({'transcription': {'segments': 24}})
+    scales = (dict.fromkeys(cfg.terms(), 1.0),)
+    with VehicleProblem(cfg, 'low', scales, hessian='exact') as vp:
+        assert vp.driver.options['hessian_structure'] is None
+        first = vp.solve()
+        computed = vp.driver.options['hessian_structure']
+    cached = cache.load_hessian(vp.cache_key)
+    assert isinstance(cached, HessianStructure)
+    np.testing.assert_array_equal(cached.coloring.colors, computed.coloring.colors)
+    assert cached.varying.keys() == computed.varying.keys()
+    with VehicleProblem(cfg, 'low', scales, hessian='exact') as vp:
+        given = vp.driver.options['hessian_structure']
+        assert isinstance(given, HessianStructure)
+        second = vp.solve()
+        assert vp.driver.options['hessian_structure'] is given
+    assert second.objective == first.objective and second.iterations == first.iterations
+    small = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=4))
+    with VehicleProblem(small, 'low', scales, hessian='exact', use_cache=False) as vp:
+        vp.driver.options['hessian_structure'] = given  # another grid's
+        vp.problem.run_model()
+        assert vp.driver.hessian_structure() is not given
