@@ -351,6 +351,7 @@ class IpoptDriver(Driver):
         self.supports['distributed_design_vars'] = False
         self.supports._read_only = True
         self.opt_settings: dict[str, Any] = {}
+        self._has_recorders = False
         self.history: list[IterationInfo] = []
         self.status: int | None = None
         self.status_message = ''
@@ -422,12 +423,16 @@ class IpoptDriver(Driver):
     def _get_name(self) -> str:
         return 'IpoptDriver'
 
+    def add_recorder(self, recorder: Any) -> None:
+        """Add a case recorder: it records every accepted IPOPT iteration."""
+        super().add_recorder(recorder)
+        self._has_recorders = True
+
     def _setup_driver(self, problem: om.Problem) -> None:
         super()._setup_driver(problem)
-        if len(self._objs) != 1:
-            raise RuntimeError(
-                f'{self.msginfo}: needs exactly one objective, has {len(self._objs)}'
-            )
+        n_obj = len(problem.model.get_objectives())
+        if n_obj != 1:
+            raise RuntimeError(f'{self.msginfo}: needs exactly one objective, has {n_obj}')
         if (
             self._layout is not None
             and problem.model.get_nonlinear_vectors()[1] is not self._outputs
@@ -651,7 +656,7 @@ class IpoptDriver(Driver):
     def _record(self, x: np.ndarray | None) -> None:
         """Record the accepted iterate ``x`` with the driver's recorders (and OpenMDAO's
         ``debug_print``), the model run there if it was last run elsewhere."""
-        if not (self._rec_mgr.has_recorders() or self.options['debug_print']):
+        if not (self._has_recorders or self.options['debug_print']):
             self.iter_count += 1
             return
         with RecordingDebugging(self._get_name(), self.iter_count, self):
