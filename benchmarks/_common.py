@@ -69,31 +69,42 @@ def git_revision() -> str:
 
 
 def timed_optimize(
-    cfg, fidelity: str, scales, start: dict[str, float], totals: str = 'auto'
+    cfg,
+    fidelity: str,
+    scales,
+    start: dict[str, float],
+    totals: str = 'auto',
+    hessian: str = 'auto',
 ) -> dict[str, Any]:
     """One optimization as `suspopt optimize` does it, timed by phase: setup (building the
     Dymos/OpenMDAO problem), guess (the starting trajectory, `transcription.initial_guess`),
     coloring
     (zero when cached), solve (IPOPT, coloring excluded) and their total. ``totals``: the
-    driver's total-derivative method (``'solves'``: one OpenMDAO linear solve per color)."""
+    driver's total-derivative method (``'solves'``: one OpenMDAO linear solve per color);
+    ``hessian``: the Hessian option of :class:`VehicleProblem`. ``solve_cpu`` is the
+    process's CPU time of the solve (coloring excluded): less disturbed by other processes
+    than the wall time."""
     from suspopt.studies.run import initial_guess
     from suspopt.transcription.problem import VehicleProblem
 
     t0 = time.perf_counter()
-    vp = VehicleProblem(cfg, fidelity, scales, totals=totals)
+    vp = VehicleProblem(cfg, fidelity, scales, totals=totals, hessian=hessian)
     t1 = time.perf_counter()
     vp.set_design(start)
     vp.set_initial_guess(initial_guess(cfg, fidelity, start))
     t2 = time.perf_counter()
     mbd0 = sum(m.time_s for m in vp.modules.values())
     reused0 = sum(m.reused for m in vp.modules.values())
+    c2 = time.process_time()
     res = vp.solve()
     t3 = time.perf_counter()
+    c3 = time.process_time()
     out = {
         'setup': t1 - t0,
         'guess': t2 - t1,
         'coloring': res.times.coloring_s,
         'solve': t3 - t2 - res.times.coloring_s,
+        'solve_cpu': c3 - c2 - res.times.coloring_cpu_s,
         'iterations': res.iterations,
         'fevals': res.function_evaluations,
         'gevals': res.gradient_evaluations,

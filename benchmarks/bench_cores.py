@@ -35,8 +35,8 @@ for i in range(3_000_000):
     x += i
 """,
     'optimize': r"""
-from suspopt.config import StudyConfig
-from suspopt.study import optimize
+from suspopt.spec import StudyConfig
+from suspopt.studies.run import optimize
 optimize(StudyConfig(), 'low', verify=False)
 """,
 }

@@ -28,10 +28,11 @@ from _common import git_revision, machine  # noqa: E402
 CHILD = r"""
 import json, resource, sys, time, dataclasses
 t_import = time.perf_counter()
-from suspopt.config import config_from_dict
-from suspopt.study import resolve_scales, initial_guess
+from suspopt.spec import config_from_dict
+from suspopt.studies.run import initial_guess
+from suspopt.verification.scales import resolve_scales
 from suspopt.transcription.problem import VehicleProblem
-from suspopt.timemarching import simulate
+from suspopt.verification.timemarching import simulate
 args = json.loads(sys.argv[1])
 T = args['horizon']
 cfg = config_from_dict({

@@ -29,7 +29,9 @@ import suspopt.driver.structure as structure
 class Edge:
     """One partial derivative carried to its source output: ``P`` has ``rows`` (entries
     of ``of``) and ``cols`` (entries of ``src``), shape ``shape``; ``factor`` converts the
-    source's units into the input's; ``subjac`` holds the component's declared values."""
+    source's units into the input's; ``subjac`` holds the component's declared values.
+    ``component`` is the component's path, ``wrt`` the input (or output) differentiated and
+    ``src_indices`` the source entry of each of its entries (None: all, in order)."""
 
     of: str
     src: str
@@ -39,6 +41,9 @@ class Edge:
     factor: float
     subjac: structure.Subjac
     implicit: bool
+    component: str = ''
+    wrt: str = ''
+    src_indices: np.ndarray | None = None
 
 
 @dataclass
@@ -54,6 +59,17 @@ class DataFlow:
 
     def is_cycle(self, group: list[str]) -> bool:
         return len(group) > 1 or any(e.src == group[0] for e in self.deps.get(group[0], ()))
+
+    def ancestors(self, outputs: set[str]) -> DataFlow:
+        """The part of this flow that ``outputs`` depend on (themselves included)."""
+        needed, stack = set(), [o for o in outputs if o in self.deps]
+        while stack:
+            name = stack.pop()
+            if name not in needed:
+                needed.add(name)
+                stack.extend(e.src for e in self.deps[name])
+        groups = [g for g in self.groups if g[0] in needed]
+        return DataFlow(deps={n: self.deps[n] for n in needed}, sizes=self.sizes, groups=groups)
 
     def consumers(self) -> dict[str, int]:
         """How many outputs of the flow read each output (to free what is no longer needed)."""
@@ -85,6 +101,7 @@ def data_flow(problem: om.Problem, responses: list[str]) -> DataFlow:
         implicit = isinstance(comp, om.ImplicitComponent)
         for sj in structure.declared_subjacs(comp):
             factor = 1.0
+            idx = None
             if sj.wrt in sources:  # an input: through its connection
                 src, idx = sources[sj.wrt]
                 cols = sj.cols if idx is None else idx[sj.cols]
@@ -107,6 +124,9 @@ def data_flow(problem: om.Problem, responses: list[str]) -> DataFlow:
                     factor=factor,
                     subjac=sj,
                     implicit=implicit,
+                    component=comp.pathname,
+                    wrt=sj.wrt,
+                    src_indices=idx,
                 )
             )
 

@@ -1,10 +1,13 @@
-"""IPOPT on an OpenMDAO problem, through cyipopt and OpenMDAO's public API (paper §3.6).
+"""IPOPT as an OpenMDAO driver, through cyipopt and OpenMDAO's public API (paper §3.6).
 
 OpenMDAO 3.45 reaches IPOPT only through pyOptSparse, which is not available here, so
-this small driver wraps ``cyipopt`` directly. It is not an OpenMDAO ``Driver`` subclass:
-it reads the NLP the model declares (design variables, constraints, objective, their
-``ref``/``ref0`` scaling) from public metadata and drives the model by public calls
-(``run_solve_nonlinear``, and :mod:`suspopt.driver.totals` for the derivatives):
+:class:`IpoptDriver` is an OpenMDAO ``Driver`` (``openmdao.core.driver.Driver``, the base
+class of OpenMDAO's own drivers) around ``cyipopt``: ``problem.driver = IpoptDriver(...)``
+and ``problem.run_driver()`` solve, the driver's case recorders record every accepted
+IPOPT iteration, and OpenMDAO's ``debug_print`` applies. It reads the NLP the model
+declares (design variables, constraints, objective, their ``ref``/``ref0`` scaling) from
+public metadata and drives the model by public calls (``run_solve_nonlinear``, and
+:mod:`suspopt.driver.totals` for the derivatives):
 
 * design variables, bounds and constraints are passed to IPOPT in driver scaling;
 * the constraint Jacobian is given to IPOPT as a sparse matrix whose structure is the
@@ -12,29 +15,36 @@ it reads the NLP the model declares (design variables, constraints, objective, t
   (:mod:`suspopt.driver.sparsity`); its values come from one forward solve per color,
   gathered straight into IPOPT's nonzeros (no dense (m, n) array), driver-scaled there;
 * the objective gradient comes from one reverse solve on the same linearization;
-* the Hessian is approximated by IPOPT (limited-memory BFGS), its low-rank update kept
-  in IPOPT's augmented system (``limited_memory_aug_solver = extended``, see
-  :data:`LIMITED_MEMORY_OPTIONS`);
+* the Hessian of the Lagrangian is approximated by IPOPT (limited-memory BFGS), its
+  low-rank update kept in IPOPT's augmented system (``limited_memory_aug_solver =
+  extended``, see :data:`LIMITED_MEMORY_OPTIONS`), or, with ``hessian = 'exact'``, given
+  to IPOPT on a sparsity pattern derived from the model's structure, its values by
+  second-order adjoints along a symmetric coloring (:mod:`suspopt.driver.hessian`);
 * a model evaluation that fails (``AnalysisError``, non-finite values) is reported to IPOPT
   as an evaluation error, so IPOPT backtracks instead of aborting;
-* every accepted iteration is reported to an optional ``progress`` callable
+* every accepted iteration is recorded by the driver's recorders (``record_iteration``,
+  the model run at that iterate), reported to the ``progress`` option's callable
   (iteration, objective, constraint violation, elapsed time) and kept in ``history``;
+* design variables named in the ``pinned`` option are held at their current values
+  (IPOPT bounds lower = upper);
 * Ctrl-C (SIGINT) or SIGTERM stops IPOPT at the end of the current iteration (a second
   one interrupts at once), keeping what was computed; :attr:`IpoptDriver.interrupted`
   tells the caller, which decides what to keep and then stops too;
-* the exit status is reported truthfully: :meth:`IpoptDriver.run` returns True (success)
-  only if IPOPT reports ``Solve_Succeeded`` (0) or ``Solved_To_Acceptable_Level`` (1).
+* the exit status is reported truthfully: :attr:`IpoptDriver.status_message` is IPOPT's
+  own, and the run counts as a success (``run()`` returns OpenMDAO's failure flag False,
+  ``run_driver()``'s ``DriverResult.success`` is True) only if IPOPT reports
+  ``Solve_Succeeded`` (0) or ``Solved_To_Acceptable_Level`` (1).
 """
 
 from __future__ import annotations
 
 import ctypes
 import os
+import pprint
 import signal
 import sys
 import tempfile
 import time
-from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,9 +52,22 @@ from typing import Any
 import cyipopt
 import numpy as np
 import openmdao.api as om
+from openmdao.core.driver import Driver, DriverResult, RecordingDebugging
 
-from suspopt.driver.propagation import PropagatedTotals, make_totals
-from suspopt.driver.sparsity import Coloring, compute_coloring
+import suspopt.driver.structure as structure
+from suspopt.driver.dataflow import DataFlow, data_flow
+from suspopt.driver.hessian import (
+    HessianColoring,
+    HessianStructure,
+    PropagatedHessian,
+    edge_values,
+    fd_hessian,
+    hessian_structure,
+    varying_entries,
+)
+from suspopt.driver.propagation import TOTALS_METHODS, PropagatedTotals, make_totals
+from suspopt.driver.propagation import supported as propagation_supported
+from suspopt.driver.sparsity import Coloring, Variable, compute_coloring
 from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
 
 #: IPOPT's return statuses (IpReturnCodes.h).
@@ -258,6 +281,16 @@ def _output_file_problems(name: str, value: Any) -> list[str]:
 #: measures both.
 LIMITED_MEMORY_OPTIONS: dict[str, Any] = {'limited_memory_aug_solver': 'extended'}
 
+#: the driver's ``hessian`` option: how IPOPT gets the Hessian of the Lagrangian
+HESSIAN_METHODS = ('limited-memory', 'exact')
+
+#: relative size of the random moves of the design at which the driver compares two
+#: linearizations to find the model's nonlinear terms (:func:`hessian.varying_entries`)
+PROBE_STEP = 1e-3
+
+#: the Hessian's forward-difference step relative to max(1, |x_j|) (driver scaling)
+FD_STEP = float(np.sqrt(np.finfo(float).eps))
+
 
 @dataclass
 class IterationInfo:
@@ -271,46 +304,54 @@ class IterationInfo:
     design: dict[str, float] = field(default_factory=dict)
 
 
-class IpoptDriver:
-    """Solve the NLP declared on ``problem``'s model with IPOPT.
+def _is_callable_or_none(name: str, value: Any) -> None:
+    if value is not None and not callable(value):
+        raise TypeError(f"option '{name}' must be callable or None, got {value!r}")
 
-    ``coloring``: the constraint Jacobian's sparsity and coloring in this layout
-    (:func:`~suspopt.driver.sparsity.compute_coloring`), e.g. from a cache; computed on the
-    first :meth:`run` if not given. ``progress`` receives an :class:`IterationInfo` after
-    every iteration; ``watch`` names design variables whose physical values it carries.
-    ``opt_settings`` are further raw IPOPT options. ``totals``: how the total derivatives
-    are computed (:data:`~suspopt.driver.propagation.TOTALS_METHODS`; ``'auto'`` propagates
-    every color at once where the model allows it).
+
+class IpoptDriver(Driver):
+    """Solve the NLP declared on the problem's model with IPOPT (an OpenMDAO driver).
+
+    ``problem.driver = IpoptDriver(max_iter=..., ...)`` and ``problem.run_driver()``
+    (which returns OpenMDAO's ``DriverResult``). Options (``driver.options``, or keyword
+    arguments):
+
+    * ``max_iter``, ``tol``, ``print_level``: IPOPT's options of the same names;
+    * ``hessian``: the Hessian of the Lagrangian: ``'limited-memory'`` (IPOPT's L-BFGS
+      approximation) or ``'exact'`` (:mod:`suspopt.driver.hessian`: its pattern from the
+      model's structure, its values by second-order adjoints along Hessian colors; L-BFGS
+      with a warning where the model's data flow cannot be read);
+    * ``totals``: how the total derivatives are computed
+      (:data:`~suspopt.driver.propagation.TOTALS_METHODS`; ``'auto'`` propagates every
+      color at once where the model allows it);
+    * ``coloring``: the constraint Jacobian's sparsity and coloring in this layout
+      (:func:`~suspopt.driver.sparsity.compute_coloring`), e.g. from a cache; computed
+      from the model's declared structure on the first run if None, and kept here;
+    * ``progress``: a callable receiving an :class:`IterationInfo` after every iteration;
+      ``watch`` names design variables whose physical values it carries;
+    * ``pinned``: design variables held at their current values (IPOPT bounds
+      lower = upper), e.g. to evaluate one design by solving only the collocation.
+
+    ``opt_settings`` (a dict, as on OpenMDAO's other drivers) holds further raw IPOPT
+    options. After a run: :attr:`status`, :attr:`status_message`, :attr:`history`,
+    :attr:`interrupted`, :attr:`last_error`, :attr:`n_function_evals`,
+    :attr:`n_gradient_evals`, :attr:`n_hessian_evals`.
     """
 
-    def __init__(
-        self,
-        problem: om.Problem,
-        *,
-        max_iter: int = 3000,
-        tol: float = 1e-8,
-        print_level: int = 0,
-        hessian_approximation: str = 'limited-memory',
-        progress: Callable[[IterationInfo], None] | None = None,
-        watch: tuple[str, ...] | list[str] = (),
-        coloring: Coloring | None = None,
-        opt_settings: dict[str, Any] | None = None,
-        totals: str = 'auto',
-    ):
-        self.problem = problem
-        self.totals_method = totals
-        self.options = {
-            'max_iter': max_iter,
-            'tol': tol,
-            'print_level': print_level,
-            'hessian_approximation': hessian_approximation,
-        }
-        if hessian_approximation == 'limited-memory':
-            self.options.update(LIMITED_MEMORY_OPTIONS)
-        self.progress = progress
-        self.watch = list(watch)
-        self.coloring = coloring
-        self.opt_settings: dict[str, Any] = dict(opt_settings or {})
+    def __init__(self, **kwargs: Any):
+        super().__init__(**kwargs)
+        self.supports['optimization'] = True
+        self.supports['inequality_constraints'] = True
+        self.supports['equality_constraints'] = True
+        self.supports['two_sided_constraints'] = True
+        self.supports['linear_constraints'] = False
+        self.supports['gradients'] = True
+        self.supports['multiple_objectives'] = False
+        self.supports['integer_design_vars'] = False
+        self.supports['distributed_design_vars'] = False
+        self.supports._read_only = True
+        self.opt_settings: dict[str, Any] = {}
+        self._has_recorders = False
         self.history: list[IterationInfo] = []
         self.status: int | None = None
         self.status_message = ''
@@ -318,50 +359,113 @@ class IpoptDriver:
         self.last_error: str | None = None
         self.interrupted = False
         self._layout: Layout | None = None
+        self._hess: HessianColoring | None = None
+        self._phess: PropagatedHessian | None = None
+        self._exact = False
+        self.n_hessian_evals = 0
         self._totals: ColoredTotals | PropagatedTotals | None = None
+        self._nlp: cyipopt.Problem | None = None
+        self._x_run: np.ndarray | None = None
+        self._x_jac: np.ndarray | None = None
+        self._x_lin: np.ndarray | None = None
+        self._eval_failed = False
+        self._t0 = time.perf_counter()
+
+    def _declare_options(self) -> None:
+        self.options.declare('max_iter', default=3000, types=int, lower=0, desc='IPOPT max_iter')
+        self.options.declare('tol', default=1e-8, types=(int, float), lower=0.0, desc='IPOPT tol')
+        self.options.declare('print_level', default=0, types=int, desc='IPOPT print_level')
+        self.options.declare(
+            'hessian',
+            default='limited-memory',
+            values=HESSIAN_METHODS,
+            desc="the Hessian of the Lagrangian: IPOPT's L-BFGS approximation, or 'exact' "
+            '(second-order adjoints along Hessian colors, suspopt.driver.hessian)',
+        )
+        self.options.declare(
+            'totals',
+            default='auto',
+            values=TOTALS_METHODS,
+            desc='how the total derivatives are computed',
+        )
+        self.options.declare(
+            'coloring',
+            default=None,
+            types=Coloring,
+            allow_none=True,
+            recordable=False,
+            desc='the constraint Jacobian coloring (None: computed on the first run)',
+        )
+        self.options.declare(
+            'hessian_structure',
+            default=None,
+            types=HessianStructure,
+            allow_none=True,
+            recordable=False,
+            desc="with hessian='exact': its nonlinear terms and coloring (None: computed "
+            'on the first run)',
+        )
+        self.options.declare(
+            'progress',
+            default=None,
+            allow_none=True,
+            check_valid=_is_callable_or_none,
+            recordable=False,
+            desc='called with an IterationInfo after every IPOPT iteration',
+        )
+        self.options.declare(
+            'watch', default=[], types=(list, tuple), desc='design variables in IterationInfo'
+        )
+        self.options.declare(
+            'pinned', default=[], types=(list, tuple), desc='design variables held fixed'
+        )
+
+    def _get_name(self) -> str:
+        return 'IpoptDriver'
+
+    def add_recorder(self, recorder: Any) -> None:
+        """Add a case recorder: it records every accepted IPOPT iteration."""
+        super().add_recorder(recorder)
+        self._has_recorders = True
+
+    def _setup_driver(self, problem: om.Problem) -> None:
+        super()._setup_driver(problem)
+        n_obj = len(problem.model.get_objectives())
+        if n_obj != 1:
+            raise RuntimeError(f'{self.msginfo}: needs exactly one objective, has {n_obj}')
+        if (
+            self._layout is not None
+            and problem.model.get_nonlinear_vectors()[1] is not self._outputs
+        ):
+            self._layout = self._totals = self._hess = self._phess = None  # new vectors
+
+    @property
+    def problem(self) -> om.Problem:
+        """The problem this driver is attached to."""
+        if self._problem is None:
+            raise RuntimeError(f'{self.msginfo}: not attached to a problem (problem.driver = ...)')
+        return self._problem()
+
+    @property
+    def coloring(self) -> Coloring | None:
+        """The constraint Jacobian's coloring in use (the ``coloring`` option)."""
+        return self.options['coloring']
 
     # ------------------------------------------------------------------ layout
     def layout(self) -> Layout:
-        """The NLP as declared on the model (read once)."""
+        """The NLP as declared on the model (read once per setup)."""
         if self._layout is None:
-            self._layout = lay = nlp_layout(self.problem)
+            lay = nlp_layout(self.problem)
             meta = [lay.dv_meta[v.name] for v in lay.design_vars]
-            self._dv_scaler = np.concatenate(
-                [_vec(m.get('total_scaler'), 1.0, v.size) for m, v in zip(meta, lay.design_vars)]
-            )
-            self._dv_adder = np.concatenate(
-                [_vec(m.get('total_adder'), 0.0, v.size) for m, v in zip(meta, lay.design_vars)]
-            )
+            self._dv_scaler = _cat(meta, lay.design_vars, 'total_scaler', 1.0)
+            self._dv_adder = _cat(meta, lay.design_vars, 'total_adder', 0.0)
             cmeta = [lay.con_meta[v.name] for v in lay.constraints]
-            self._con_scaler = (
-                np.concatenate(
-                    [
-                        _vec(m.get('total_scaler'), 1.0, v.size)
-                        for m, v in zip(cmeta, lay.constraints)
-                    ]
-                )
-                if cmeta
-                else np.zeros(0)
-            )
-            self._con_adder = (
-                np.concatenate(
-                    [
-                        _vec(m.get('total_adder'), 0.0, v.size)
-                        for m, v in zip(cmeta, lay.constraints)
-                    ]
-                )
-                if cmeta
-                else np.zeros(0)
-            )
+            self._con_scaler = _cat(cmeta, lay.constraints, 'total_scaler', 1.0)
+            self._con_adder = _cat(cmeta, lay.constraints, 'total_adder', 0.0)
             self._obj_scaler = float(_vec(lay.obj_meta.get('total_scaler'), 1.0, 1)[0])
             self._obj_adder = float(_vec(lay.obj_meta.get('total_adder'), 0.0, 1)[0])
-            lo = np.concatenate(
-                [_vec(m.get('lower'), -np.inf, v.size) for m, v in zip(meta, lay.design_vars)]
-            )
-            up = np.concatenate(
-                [_vec(m.get('upper'), np.inf, v.size) for m, v in zip(meta, lay.design_vars)]
-            )
-            self._lb, self._ub = self._scaled_x(lo), self._scaled_x(up)
+            self._lb = self._scaled_x(_cat(meta, lay.design_vars, 'lower', -np.inf))
+            self._ub = self._scaled_x(_cat(meta, lay.design_vars, 'upper', np.inf))
             cl, cu = [], []
             for m, v in zip(cmeta, lay.constraints):
                 if m.get('equals') is not None:
@@ -381,6 +485,7 @@ class IpoptDriver:
             self._dv_slices = {
                 v.name: slice(a, b) for v, a, b in zip(lay.design_vars, starts[:-1], starts[1:])
             }
+            self._layout = lay
         return self._layout
 
     def _scaled_x(self, phys: np.ndarray) -> np.ndarray:
@@ -396,13 +501,19 @@ class IpoptDriver:
         self.layout()
         return self._outputs.asarray()[self._dv_pos].copy()
 
+    def scaled_design(self) -> np.ndarray:
+        """The model's current design in driver scaling (IPOPT's x)."""
+        return self._scaled_x(self.design_values())
+
     def total_coloring(self) -> Coloring | None:
         """The constraint Jacobian's coloring: the given one, or computed from the model's
-        declared structure (once)."""
+        declared structure (once, and kept in the ``coloring`` option)."""
         lay = self.layout()
-        if self.coloring is None and lay.m:
-            self.coloring = compute_coloring(self.problem, lay.constraints, lay.design_vars)
-        c = self.coloring
+        if self.options['coloring'] is None and lay.m:
+            self.options['coloring'] = compute_coloring(
+                self.problem, lay.constraints, lay.design_vars
+            )
+        c = self.options['coloring']
         if c is not None and tuple(c.shape) != (lay.m, lay.n):
             raise ValueError(
                 f'total coloring shape {c.shape} does not match the constraint '
@@ -411,6 +522,13 @@ class IpoptDriver:
         return c
 
     # ------------------------------------------------------------------ evaluations
+    @DriverResult.track_stats(kind='model')
+    def _run_model_at(self, x: np.ndarray) -> None:
+        """Set the design (driver-scaled ``x``) into the model and run it."""
+        self._outputs.asarray()[self._dv_pos] = x / self._dv_scaler - self._dv_adder
+        self.n_function_evals += 1
+        self.problem.model.run_solve_nonlinear()
+
     def _evaluate(self, x: np.ndarray) -> None:
         """Run the model at x (driver-scaled) unless it was the last point run."""
         if self._x_run is not None and np.array_equal(x, self._x_run):
@@ -418,17 +536,14 @@ class IpoptDriver:
                 raise cyipopt.CyIpoptEvaluationError()
             return
         self._x_run = x.copy()
-        self._x_jac = None
         self._eval_failed = False
-        data = self._outputs.asarray()
-        data[self._dv_pos] = x / self._dv_scaler - self._dv_adder
-        self.n_function_evals += 1
         try:
-            self.problem.model.run_solve_nonlinear()
+            self._run_model_at(x)
         except om.AnalysisError as err:
             self.last_error = str(err)
             self._eval_failed = True
             raise cyipopt.CyIpoptEvaluationError() from None
+        data = self._outputs.asarray()
         obj = (data[self._obj_pos] + self._obj_adder) * self._obj_scaler
         con = (data[self._con_pos] + self._con_adder) * self._con_scaler
         if not (np.all(np.isfinite(obj)) and np.all(np.isfinite(con))):
@@ -437,13 +552,19 @@ class IpoptDriver:
             raise cyipopt.CyIpoptEvaluationError()
         self._f, self._g = float(obj[0]), con
 
+    @DriverResult.track_stats(kind='deriv')
+    def _compute_derivatives(self) -> tuple[np.ndarray, np.ndarray]:
+        self.n_gradient_evals += 1
+        assert self._totals is not None
+        return self._totals.compute()
+
     def _jacobian_values(self, x: np.ndarray) -> None:
-        self._evaluate(x)
         if self._x_jac is not None and np.array_equal(x, self._x_jac):
             return
-        self.n_gradient_evals += 1
+        self._evaluate(x)
+        self._x_lin = None
         try:
-            g, jac = self._totals.compute()
+            g, jac = self._compute_derivatives()
         except om.AnalysisError as err:
             self.last_error = str(err)
             raise cyipopt.CyIpoptEvaluationError() from None
@@ -454,8 +575,25 @@ class IpoptDriver:
             raise cyipopt.CyIpoptEvaluationError()
         self._grad, self._jac = grad, jac
         self._x_jac = x.copy()
+        self._x_lin = x.copy()  # where the totals' linearization is
+        if 'totals' in self.options['debug_print']:
+            self._print_totals()
 
-    # cyipopt callbacks
+    def _print_totals(self) -> None:
+        """OpenMDAO's ``debug_print = ['totals']``: the driver-scaled derivatives."""
+        lay = self.layout()
+        header = f'Driver total derivatives for iteration: {self.iter_count}'
+        print(f'{header}\n{"-" * len(header)}\n')
+        grad = {v.name: self._grad[self._dv_slices[v.name]] for v in lay.design_vars}
+        print(f'objective gradient ({lay.objective.name}):')
+        pprint.pprint(grad)
+        print(
+            f'constraint Jacobian: {lay.m} x {lay.n}, {self._jac.size} nonzeros, '
+            f'largest |value| {np.abs(self._jac).max(initial=0.0):.6g}\n'
+        )
+        sys.stdout.flush()
+
+    # cyipopt callbacks (also callable directly after :meth:`prepare`)
     def objective(self, x: np.ndarray) -> float:
         self._evaluate(x)
         return self._f
@@ -496,60 +634,249 @@ class IpoptDriver:
             dual_infeasibility=float(inf_du),
             elapsed_s=time.perf_counter() - self._t0,
         )
-        if self.watch:
-            try:
-                x = np.asarray(self._nlp.get_current_iterate(scaled=False)['x'])
-            except Exception:  # not available during restoration
-                x = self._x_run
-            if x is not None:
-                phys = x / self._dv_scaler - self._dv_adder
-                info.design = {n: float(phys[self._dv_slices[n]][0]) for n in self.watch}
+        x = self._current_iterate()
+        if self.options['watch'] and x is not None:
+            phys = x / self._dv_scaler - self._dv_adder
+            info.design = {n: float(phys[self._dv_slices[n]][0]) for n in self.options['watch']}
         self.history.append(info)
-        if self.progress is not None:
-            self.progress(info)
+        self._record(x)
+        progress = self.options['progress']
+        if progress is not None:
+            progress(info)
         return not self.interrupted
+
+    def _current_iterate(self) -> np.ndarray | None:
+        """IPOPT's current iterate (driver-scaled), or the last point run where IPOPT does
+        not tell it (restoration phase)."""
+        try:
+            return np.asarray(self._nlp.get_current_iterate(scaled=False)['x'])  # type: ignore[union-attr]
+        except Exception:
+            return self._x_run
+
+    def _record(self, x: np.ndarray | None) -> None:
+        """Record the accepted iterate ``x`` with the driver's recorders (and OpenMDAO's
+        ``debug_print``), the model run there if it was last run elsewhere."""
+        if not (self._has_recorders or self.options['debug_print']):
+            self.iter_count += 1
+            return
+        with RecordingDebugging(self._get_name(), self.iter_count, self):
+            if x is not None and (self._x_run is None or not np.array_equal(x, self._x_run)):
+                try:
+                    self._evaluate(np.asarray(x, dtype=float))
+                except cyipopt.CyIpoptEvaluationError:
+                    pass
+        self.iter_count += 1
+
+    # ------------------------------------------------------------------ Hessian
+    def _flow(self) -> DataFlow | None:
+        """The model's data flow to the responses, where the driver can read it."""
+        if isinstance(self._totals, PropagatedTotals):
+            return self._totals.flow
+        if not structure.supported():
+            return None
+        lay = self.layout()
+        flow = data_flow(self.problem, [v.source for v in lay.constraints] + [lay.objective.source])
+        return flow if propagation_supported(flow) else None
+
+    def hessian_structure(self) -> HessianStructure | None:
+        """The Hessian of the Lagrangian's nonlinear terms and coloring
+        (:mod:`suspopt.driver.hessian`): the ``hessian_structure`` option if it fits the
+        model, else computed (once, and kept there); None where the model's data flow is
+        not available (implicit components, cycles, an untested OpenMDAO version)."""
+        self._set_up_totals()
+        flow = self._flow()
+        if flow is None:
+            return None
+        hs = self.options['hessian_structure']
+        if hs is None or not hs.matches(flow, self.layout().n):
+            varying = self._varying_entries(flow)
+            hs = hessian_structure(flow, self.layout().design_vars, varying)
+            self.options['hessian_structure'] = hs
+        return hs
+
+    def _varying_entries(self, flow: DataFlow) -> dict | None:
+        """The declared partial entries that differ between linearizations at two random
+        points near the current design (None if the model fails there); the model is left
+        as it was."""
+        data = self._outputs.asarray()
+        saved = data[self._dv_pos].copy()
+        x0 = self.scaled_design()
+        rng = np.random.default_rng(20120301)
+        snapshots = []
+        try:
+            for step in (PROBE_STEP, PROBE_STEP, PROBE_STEP / 10, PROBE_STEP / 10):
+                x = x0 + step * np.maximum(1.0, np.abs(x0)) * rng.standard_normal(x0.size)
+                try:
+                    self._run_model_at(x)
+                    self.problem.model.run_linearize()
+                except om.AnalysisError:
+                    continue
+                snapshots.append(edge_values(flow))
+                if len(snapshots) == 2:
+                    return varying_entries(*snapshots)
+            return None
+        finally:
+            data[self._dv_pos] = saved
+            self.problem.model.run_solve_nonlinear()
+            self._x_run = None
+
+    def hessian(self, x: np.ndarray, lam: np.ndarray, obj_factor: float) -> np.ndarray:
+        """IPOPT's Hessian of the Lagrangian ``σ ∇²f + Σ λ_i ∇²c_i`` (driver scaling) at the
+        nonzeros of :meth:`hessianstructure`: its products with each Hessian color's
+        forward-difference steps, by second-order adjoints
+        (:class:`~suspopt.driver.hessian.PropagatedHessian`) where the totals are
+        propagated, else by differences of the gradient of the whole model."""
+        assert self._hess is not None and self._totals is not None
+        self._evaluate(x)
+        w_obj = float(obj_factor) * self._obj_scaler
+        w_con = np.asarray(lam) * self._con_scaler
+        self.n_hessian_evals += 1
+        if self._phess is not None:
+            h = FD_STEP * np.maximum(1.0, np.abs(x))
+            try:
+                at_x = self._x_lin is not None and np.array_equal(x, self._x_lin)
+                products = self._phess.compute(h / self._dv_scaler, w_obj, w_con, at_x)
+                self._x_lin = x.copy()
+            except om.AnalysisError as err:
+                self.last_error = str(err)
+                self._x_run = self._x_lin = None
+                raise cyipopt.CyIpoptEvaluationError() from None
+            products /= self._dv_scaler
+            if not np.all(np.isfinite(products)):
+                self.last_error = 'the Hessian contains NaN or inf'
+                raise cyipopt.CyIpoptEvaluationError()
+            return self._hess.recover(products, h)
+        return self._fd_hessian(x, w_obj, w_con)
+
+    def _fd_hessian(self, x: np.ndarray, w_obj: float, w_con: np.ndarray) -> np.ndarray:
+        """The Hessian by forward differences of the Lagrangian gradient of the whole model
+        (run, linearized and differentiated again at each color's step)."""
+        assert self._hess is not None and self._totals is not None
+        totals = self._totals
+        self._x_lin = None
+
+        def gradient(xp: np.ndarray) -> np.ndarray:
+            if xp is not x:
+                self._x_run = None  # the model moves off x
+                try:
+                    self._run_model_at(xp)
+                except om.AnalysisError as err:
+                    self.last_error = str(err)
+                    raise cyipopt.CyIpoptEvaluationError() from None
+            g = totals.lagrangian_gradient(w_obj, w_con) / self._dv_scaler
+            if not np.all(np.isfinite(g)):
+                self.last_error = 'the Lagrangian gradient contains NaN or inf'
+                raise cyipopt.CyIpoptEvaluationError()
+            return g
+
+        return fd_hessian(gradient, x, self._hess, rel_step=FD_STEP)
+
+    def hessianstructure(self) -> tuple[np.ndarray, np.ndarray]:
+        assert self._hess is not None
+        return self._hess.rows, self._hess.cols
 
     # ------------------------------------------------------------------ run
     def prepare(self) -> None:
         """Read the layout, get the coloring and set up the colored totals (done by
         :meth:`run`; after it the cyipopt callbacks can be called directly)."""
-        lay = self.layout()
+        self.layout()
         self.history = []
         self.status, self.status_message, self.last_error = None, '', None
-        self.n_function_evals = self.n_gradient_evals = 0
         self.interrupted = False
         self._x_run = self._x_jac = None
         self._eval_failed = False
         self._t0 = time.perf_counter()
-        coloring = self.total_coloring()
-        if self._totals is None or self._totals.coloring is not coloring:
-            self._totals = make_totals(self.problem, lay, coloring, self.totals_method)
+        coloring = self._set_up_totals()
+        self._exact = self.options['hessian'] == 'exact'
+        hs = self.hessian_structure() if self._exact else None
+        if self._exact and hs is None:
+            om.issue_warning(
+                f"{self.msginfo}: hessian='exact' needs the model's data flow (explicit "
+                'components, no cycle, a tested OpenMDAO version); using limited-memory',
+                category=om.DriverWarning,
+            )
+            self._exact = False
+        self._hess = None if hs is None else hs.coloring
+        if hs is None or not isinstance(self._totals, PropagatedTotals):
+            self._phess = None
+        elif (
+            self._phess is None
+            or self._phess.coloring is not hs.coloring
+            or self._phess.totals is not self._totals
+        ):
+            self._phess = PropagatedHessian(self.problem, self._totals, hs.coloring, hs.varying)
+        self.n_hessian_evals = 0
         if coloring is not None:
             self._jrows, self._jcols = coloring.rows, coloring.cols
         else:  # no constraints
             self._jrows = self._jcols = np.zeros(0, dtype=np.int64)
         self._jac_scaler = self._con_scaler[self._jrows] / self._dv_scaler[self._jcols]
+        self.n_function_evals = self.n_gradient_evals = 0
+        self._x_run = self._x_jac = self._x_lin = None
 
-    def scaled_design(self) -> np.ndarray:
-        """The model's current design in driver scaling (IPOPT's x)."""
-        return self._scaled_x(self.design_values())
+    def _set_up_totals(self) -> Coloring | None:
+        """The coloring and the total-derivative engine for it (once)."""
+        coloring = self.total_coloring()
+        if self._totals is None or self._totals.coloring is not coloring:
+            self._totals = make_totals(
+                self.problem, self.layout(), coloring, self.options['totals']
+            )
+        return coloring
 
-    def run(self, pinned: tuple[str, ...] | list[str] = ()) -> bool:
-        """Solve with IPOPT from the model's current design; ``pinned`` design variables
-        are held at their current values (IPOPT bounds lower = upper). Leaves the model at
-        IPOPT's final point. Returns True if IPOPT converged."""
+    def _ipopt_options(self) -> dict[str, Any]:
+        opts: dict[str, Any] = {
+            'max_iter': self.options['max_iter'],
+            'tol': self.options['tol'],
+            'print_level': self.options['print_level'],
+            'hessian_approximation': 'exact' if self._exact else 'limited-memory',
+        }
+        if not self._exact:
+            opts.update(LIMITED_MEMORY_OPTIONS)
+        return opts
+
+    def _check_desvar_bounds(self, x0: np.ndarray, pinned: list[str]) -> None:
+        """OpenMDAO's ``invalid_desvar_behavior`` for the free design variables."""
+        behavior = self.options['invalid_desvar_behavior']
+        if behavior == 'ignore':
+            return
+        bad = []
+        for v in self.layout().design_vars:
+            sl = self._dv_slices[v.name]
+            if v.name not in pinned and np.any((x0[sl] < self._lb[sl]) | (x0[sl] > self._ub[sl])):
+                bad.append(v.name)
+        if bad:
+            msg = (
+                f'{self.msginfo}: the initial values of {", ".join(bad)} are out of their '
+                'bounds (IPOPT moves them inside)'
+            )
+            if behavior == 'raise':
+                raise ValueError(msg)
+            om.issue_warning(msg, category=om.DriverWarning)
+
+    def run(self) -> bool:
+        """Solve with IPOPT from the model's current design (``pinned`` design variables
+        held at their current values). Leaves the model at IPOPT's final point. Returns
+        OpenMDAO's failure flag: False if IPOPT converged (``Solve_Succeeded`` or
+        ``Solved_To_Acceptable_Level``), True otherwise."""
+        self.result.reset()
+        self.iter_count = 0
         self.prepare()
         lay = self.layout()
-        x0 = self._scaled_x(self.design_values())
+        pinned = list(self.options['pinned'])
+        unknown = [n for n in pinned if n not in self._dv_slices]
+        if unknown:
+            raise ValueError(f'{self.msginfo}: pinned {unknown} are not design variables')
+        x0 = self.scaled_design()
+        self._check_desvar_bounds(x0, pinned)
         lb, ub = self._lb.copy(), self._ub.copy()
         for name in pinned:
             sl = self._dv_slices[name]
             lb[sl] = ub[sl] = x0[sl]
 
         self._nlp = nlp = cyipopt.Problem(
-            n=lay.n, m=lay.m, problem_obj=self, lb=lb, ub=ub, cl=self._cl, cu=self._cu
+            n=lay.n, m=lay.m, problem_obj=self._callbacks(), lb=lb, ub=ub, cl=self._cl, cu=self._cu
         )
-        for key, val in self.options.items():
+        for key, val in self._ipopt_options().items():
             nlp.add_option(key, val)
         nlp.add_option('sb', 'yes')
         for key, val in self.opt_settings.items():
@@ -588,7 +915,44 @@ class IpoptDriver:
             self._evaluate(np.clip(np.asarray(x), lb, ub))
         except cyipopt.CyIpoptEvaluationError:
             pass
-        return self.status in (0, 1)
+        return self.status not in (0, 1)
+
+    def _callbacks(self) -> _Callbacks:
+        return _CallbacksWithHessian(self) if self._exact else _Callbacks(self)
+
+    def get_exit_status(self) -> str:
+        """IPOPT's status name (e.g. ``Solve_Succeeded``), or ``NOT_RUN``."""
+        return self.status_message or 'NOT_RUN'
+
+    def _update_result(self, result: DriverResult) -> None:
+        result.iter_count = self.history[-1].iteration if self.history else 0
+
+
+class _Callbacks:
+    """What cyipopt calls: the driver's evaluations (a separate object so that IPOPT sees a
+    ``hessian`` callback only when the driver computes one)."""
+
+    def __init__(self, driver: IpoptDriver):
+        self.objective = driver.objective
+        self.constraints = driver.constraints
+        self.gradient = driver.gradient
+        self.jacobian = driver.jacobian
+        self.jacobianstructure = driver.jacobianstructure
+        self.intermediate = driver.intermediate
+
+
+class _CallbacksWithHessian(_Callbacks):
+    def __init__(self, driver: IpoptDriver):
+        super().__init__(driver)
+        self.hessian = driver.hessian
+        self.hessianstructure = driver.hessianstructure
+
+
+def _cat(metas: list[dict], variables: list[Variable], key: str, default: float) -> np.ndarray:
+    """Metadata ``key`` of every entry of ``variables``, one flat vector."""
+    if not variables:
+        return np.zeros(0)
+    return np.concatenate([_vec(m.get(key), default, v.size) for m, v in zip(metas, variables)])
 
 
 def _vec(value: Any, default: float, size: int) -> np.ndarray:

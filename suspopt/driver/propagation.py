@@ -67,8 +67,11 @@ class _Product:
 
     def refill(self) -> None:
         val = self.edge.subjac.values()
+        data: np.ndarray
         if self.duplicates:  # repeated (row, col) pairs add up, as OpenMDAO applies them
-            data = np.bincount(self.slot, weights=val, minlength=self.P.data.size)
+            data = np.asarray(
+                np.bincount(self.slot, weights=val, minlength=self.P.data.size), dtype=float
+            )
         else:
             data = np.empty(self.P.data.size)
             data[self.slot] = val
@@ -134,20 +137,32 @@ class PropagatedTotals:
         self._rev_pos = [np.nonzero(coloring.rows == r)[0] for r in coloring.reverse_rows]
         self._dv = [(v.source, entries(v)) for v in layout.design_vars]
 
-    def compute(self) -> tuple[np.ndarray, np.ndarray]:
-        """(objective gradient (n,), Jacobian values at the coloring's nonzeros)."""
+        # the Lagrangian's reverse seeds: where each objective / constraint entry sits
+        self._lag_obj = (layout.objective.source, entries(layout.objective))
+        starts = np.cumsum([0] + [v.size for v in layout.constraints])
+        self._lag_con = [
+            (v.source, entries(v), slice(a, b))
+            for v, a, b in zip(layout.constraints, starts[:-1], starts[1:])
+        ]
+
+    def _linearize(self) -> None:
         self.problem.model.run_linearize()
         for products in self._products.values():
             for p in products:
                 p.refill()
-        jac = np.zeros(self.coloring.nnz)
 
-        # forward: every color at once; each T freed once its last reader is done
+    def linearize(self) -> None:
+        """Linearize the model and read every declared partial's values."""
+        self._linearize()
+
+    def forward(self, seeds: dict[str, np.ndarray], keep: set[str]) -> dict[str, np.ndarray]:
+        """Propagate the forward seeds (output → (size, width)) through the last
+        linearization: the tangents of the outputs in ``keep`` (the others are freed once
+        read)."""
         T: dict[str, np.ndarray] = {}
         left = dict(self._consumers)
-        keep = {src for src, *_ in self._gather}
         for n in self._order:
-            out = self._seeds.get(n)
+            out = seeds.get(n)
             out = None if out is None else out.copy()
             for p in self._products[n]:
                 s = T.get(p.edge.src)
@@ -160,28 +175,86 @@ class PropagatedTotals:
                 left[src] -= 1
                 if left[src] == 0 and src not in keep:
                     T.pop(src, None)
-        for src, pos, entry, color in self._gather:
-            t = T.get(src)
-            if t is not None and pos.size:
-                jac[pos] = t[entry, color]
+        return {n: t for n, t in T.items() if n in keep}
 
-        # reverse: the objective gradient and the dense rows
-        W = {n: w.copy() for n, w in self._rseeds.items()}
+    def _reverse(self, W: dict[str, np.ndarray], width: int, keep_all: bool = False) -> np.ndarray:
+        """Propagate the reverse seeds ``W`` (output → (size, width)) to the design
+        variables: (n, width). ``W`` is consumed, unless ``keep_all``: then it ends holding
+        every output's adjoint."""
         for n in reversed(self._order):
-            w = W.pop(n, None) if n not in self._seeds else W.get(n)
+            w = W.pop(n, None) if n not in self._seeds and not keep_all else W.get(n)
             if w is None:
                 continue
             for p in self._products[n]:
                 prod = p.PT @ w
                 src = p.edge.src
                 W[src] = prod if src not in W else W[src] + prod
-        n_rev = 1 + self.coloring.reverse_rows.size
-        G = np.concatenate(
-            [W[src][idx] if src in W else np.zeros((idx.size, n_rev)) for src, idx in self._dv]
+        return np.concatenate(
+            [W[src][idx] if src in W else np.zeros((idx.size, width)) for src, idx in self._dv]
         )
+
+    def compute(self) -> tuple[np.ndarray, np.ndarray]:
+        """(objective gradient (n,), Jacobian values at the coloring's nonzeros)."""
+        self._linearize()
+        jac = np.zeros(self.coloring.nnz)
+
+        # forward: every color at once; each T freed once its last reader is done
+        T = self.forward(self._seeds, {src for src, *_ in self._gather})
+        for src, pos, entry, color in self._gather:
+            t = T.get(src)
+            if t is not None and pos.size:
+                jac[pos] = t[entry, color]
+
+        # reverse: the objective gradient and the dense rows
+        n_rev = 1 + self.coloring.reverse_rows.size
+        G = self._reverse({n: w.copy() for n, w in self._rseeds.items()}, n_rev)
         for k, pos in enumerate(self._rev_pos):
             jac[pos] = G[self.coloring.cols[pos], 1 + k]
         return G[:, 0].copy(), jac
+
+    def lagrangian_gradient(self, w_obj: float, w_con: np.ndarray) -> np.ndarray:
+        """``w_obj ∇f + Σ_i w_con[i] ∇c_i`` (unscaled, (n,)) at the model's current point:
+        one linearization and one reverse propagation."""
+        self._linearize()
+        return self.adjoints(w_obj, w_con)[1]
+
+    def adjoints(self, w_obj: float, w_con: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The adjoint ``∂L/∂y`` of every output ``y`` ((size, 1) each) of the Lagrangian
+        ``L = w_obj f + Σ_i w_con[i] c_i`` through the last linearization, and its gradient
+        (unscaled, (n,))."""
+        sizes = self.flow.sizes
+        W: dict[str, np.ndarray] = {}
+
+        def seed(src: str, idx: np.ndarray, val: np.ndarray | float) -> None:
+            w = W.setdefault(src, np.zeros((sizes[src], 1)))
+            w[idx, 0] += val  # entries of one variable are distinct
+
+        seed(*self._lag_obj, w_obj)
+        for src, idx, sl in self._lag_con:
+            seed(src, idx, w_con[sl])
+        G = self._reverse(W, 1, keep_all=True)
+        return W, G[:, 0]
+
+    @property
+    def design_sources(self) -> list[str]:
+        """The outputs that hold the design variables."""
+        return [src for src, _ in self._dv]
+
+    def reverse(self, W: dict[str, np.ndarray], width: int) -> np.ndarray:
+        """Propagate reverse seeds (output → (size, width), consumed) through the last
+        linearization to the design variables: (n, width)."""
+        return self._reverse(W, width)
+
+    def design_seeds(self, columns: np.ndarray) -> dict[str, np.ndarray]:
+        """Forward seeds: ``columns`` (n, width), one row per design-variable entry in
+        the layout's order, placed at those entries of their source outputs."""
+        out: dict[str, np.ndarray] = {}
+        start = 0
+        for src, idx in self._dv:
+            E = out.setdefault(src, np.zeros((self.flow.sizes[src], columns.shape[1])))
+            E[idx] += columns[start : start + idx.size]
+            start += idx.size
+        return out
 
 
 #: how the driver computes total derivatives: 'auto' (propagated where supported, else one

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,7 +32,7 @@ import openmdao.api as om
 import scipy.sparse as sp
 
 import suspopt.driver.structure as structure
-from suspopt.driver.dataflow import data_flow
+from suspopt.driver.dataflow import DataFlow, data_flow
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,7 @@ class Coloring:
     def load(cls, path: str | Path) -> Coloring:
         with np.load(path) as data:
             return cls(
-                shape=tuple(int(s) for s in data['shape']),
+                shape=(int(data['shape'][0]), int(data['shape'][1])),
                 rows=data['rows'],
                 cols=data['cols'],
                 colors=data['colors'],
@@ -121,6 +122,25 @@ def structural_sparsity(
     """The exact pattern of ``d of / d wrt`` (rows: ``of`` entries in order, columns:
     ``wrt`` entries in order) from the declared partials of every component."""
     flow = data_flow(problem, [v.source for v in of])
+    S = forward_patterns(flow, wrt, keep={v.source for v in of})
+    ncol = sum(v.size for v in wrt)
+    blocks = []
+    for v in of:
+        s = S[v.source]
+        blocks.append(s if v.indices is None else s[v.indices])
+    return _bool(sp.vstack(blocks, format='csr')) if blocks else sp.csr_matrix((0, ncol))
+
+
+def forward_patterns(
+    flow: DataFlow,
+    wrt: list[Variable],
+    keep: set[str],
+    visit: Callable[[str, dict[str, sp.csr_matrix]], None] | None = None,
+) -> dict[str, sp.csr_matrix]:
+    """The pattern ``S_o`` of ``d o / d wrt`` of every output ``o`` of ``flow``, in its
+    topological order; ``visit(o, S)`` is called right after ``S_o`` of an output outside
+    any cycle is formed, while the patterns of all its sources are still in ``S``. Returns
+    the patterns of the outputs in ``keep`` (the others are freed once read)."""
     sizes = flow.sizes
     patterns = {
         id(e): sp.csr_matrix(
@@ -144,7 +164,6 @@ def structural_sparsity(
         start += idx.size
 
     consumers = flow.consumers()
-    keep = {v.source for v in of}
     S: dict[str, sp.csr_matrix] = {}
 
     def evaluate(o: str) -> sp.csr_matrix:
@@ -158,6 +177,8 @@ def structural_sparsity(
     for group in flow.groups:
         if not flow.is_cycle(group):
             S[group[0]] = evaluate(group[0])
+            if visit is not None:
+                visit(group[0], S)
         else:  # a cycle: iterate to the fixed point (the structural closure)
             for n in group:
                 S[n] = sp.csr_matrix((sizes[n], ncol), dtype=np.float32)
@@ -175,12 +196,7 @@ def structural_sparsity(
                 consumers[e.src] -= 1
                 if consumers[e.src] == 0 and e.src not in keep and e.src in S:
                     del S[e.src]
-
-    blocks = []
-    for v in of:
-        s = S[v.source]
-        blocks.append(s if v.indices is None else s[v.indices])
-    return _bool(sp.vstack(blocks, format='csr')) if blocks else sp.csr_matrix((0, ncol))
+    return {n: S[n] for n in keep if n in S}
 
 
 def color_columns(pattern: sp.spmatrix) -> np.ndarray:

@@ -64,7 +64,7 @@ def declared_subjacs(component: om.ExplicitComponent | om.ImplicitComponent) -> 
     for (of, wrt), meta in component._subjacs_info.items():
         if explicit and of == wrt:
             continue
-        shape = tuple(int(s) for s in meta['shape'])
+        shape = (int(meta['shape'][0]), int(meta['shape'][1]))
         if meta.get('rows') is not None:
             rows = np.asarray(meta['rows'], dtype=np.int64).ravel()
             cols = np.asarray(meta['cols'], dtype=np.int64).ravel()

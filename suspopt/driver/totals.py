@@ -55,14 +55,11 @@ def _indices(meta: dict) -> np.ndarray | None:
 
 
 def nlp_layout(problem: om.Problem) -> Layout:
-    """Design variables, nonlinear constraints and the objective of ``problem``."""
+    """Design variables, constraints and the objective of ``problem`` (a constraint declared
+    linear is passed to IPOPT like any other)."""
     model = problem.model
     dvs = model.get_design_vars(recurse=True, get_sizes=True)
-    cons = {
-        k: v
-        for k, v in model.get_constraints(recurse=True, get_sizes=True).items()
-        if not v.get('linear')
-    }
+    cons = model.get_constraints(recurse=True, get_sizes=True)
     objs = model.get_objectives(recurse=True, get_sizes=True)
     if len(objs) != 1:
         raise ValueError(f'the model needs exactly one objective, has {len(objs)}')
@@ -148,3 +145,17 @@ class ColoredTotals:
         d_out.asarray()[self._obj_out] = -1.0
         model.run_solve_linear('rev')
         return d_res.asarray()[self._dv_res].copy(), jac
+
+    def lagrangian_gradient(self, w_obj: float, w_con: np.ndarray) -> np.ndarray:
+        """``w_obj ∇f + Σ_i w_con[i] ∇c_i`` (unscaled, (n,)) at the model's current point:
+        one linearization and one reverse solve."""
+        model = self.problem.model
+        model.run_linearize()
+        d_out, d_res = self._d_out, self._d_res
+        d_res.set_val(0.0)
+        d_out.set_val(0.0)
+        seed = d_out.asarray()
+        np.subtract.at(seed, self._obj_out, w_obj)
+        np.subtract.at(seed, self._con_out, w_con)
+        model.run_solve_linear('rev')
+        return d_res.asarray()[self._dv_res].copy()

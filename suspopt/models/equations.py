@@ -2,7 +2,7 @@
 
 This module is the single place where each equation is written. The OpenMDAO components
 of :mod:`suspopt.models` wrap these functions and add their analytic partials; the
-time-marching evaluator (:mod:`suspopt.timemarching`) calls them directly, so both
+time-marching evaluator (:mod:`suspopt.verification.timemarching`) calls them directly, so both
 integrators integrate the same model. Per-wheel arrays have the corners on their last
 axis (:mod:`suspopt.models.layout`); the half car is the two-corner case.
 

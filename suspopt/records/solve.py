@@ -77,6 +77,7 @@ class SolveTimes(Record):
     """Seconds spent on the sparsity and coloring, and in IPOPT (with the first model run)."""
 
     coloring_s: float = 0.0
+    coloring_cpu_s: float = 0.0
     solve_s: float = 0.0
 
 

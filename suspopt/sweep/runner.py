@@ -1,7 +1,7 @@
 """Many optimizations or studies side by side on Dask distributed (``suspopt sweep``).
 
 A *sweep file* (TOML) names a base study file and what to vary; every task is one
-independent :func:`suspopt.study.optimize` (or :func:`~suspopt.study.run_study`) of a
+independent :func:`suspopt.studies.run.optimize` (or :func:`~suspopt.studies.twostep.run_study`) of a
 study description built from the base and the task's overrides. Tasks travel to the
 workers as plain dictionaries and are built there (a set-up ``om.Problem`` cannot be
 pickled); results come back as plain dictionaries and are written to the output
@@ -696,7 +696,7 @@ def dask_setup(worker: Any) -> None:
 
 # ================================================================ output directory
 def atomic_write(path: Path, text: str) -> None:
-    """Write a text file atomically (:func:`suspopt.results.atomic_path`)."""
+    """Write a text file atomically (:func:`suspopt.output.rundir.atomic_path`)."""
     from suspopt.output.rundir import atomic_path
 
     with atomic_path(path) as tmp, open(tmp, 'w', newline='') as fh:

@@ -1,5 +1,8 @@
 """Cache of total-derivative colorings, keyed by the model's structure.
 
+Beside each constraint-Jacobian coloring, the exact Hessian's structure
+(:class:`~suspopt.driver.hessian.HessianStructure`) where it was used.
+
 The total-Jacobian sparsity and its coloring (:mod:`suspopt.driver.sparsity`) depend only
 on the model's structure —
 fidelity, grid, the mechanisms' topology and the code
@@ -23,6 +26,7 @@ from pathlib import Path
 import dymos
 import openmdao
 
+from suspopt.driver.hessian import HessianStructure
 from suspopt.driver.sparsity import Coloring
 from suspopt.spec.schema import StudyConfig
 
@@ -77,26 +81,38 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
     return hashlib.sha256(blob).hexdigest()[:32]
 
 
+def _file(key: str, kind: type) -> Path:
+    return cache_dir() / (f'{key}-hessian.npz' if kind is HessianStructure else f'{key}.npz')
+
+
 def load(key: str) -> Coloring | None:
     """The cached :class:`~suspopt.driver.sparsity.Coloring` for ``key``, or None."""
-    path = cache_dir() / f'{key}.npz'
-    if not path.is_file():
-        return None
+    path = _file(key, Coloring)
     try:
-        return Coloring.load(path)
+        return Coloring.load(path) if path.is_file() else None
     except Exception:  # unreadable or damaged: recompute
         return None
 
 
-def store(key: str, coloring: Coloring) -> Path | None:
-    """Save a coloring under ``key`` atomically; a read-only cache is silently skipped."""
+def load_hessian(key: str) -> HessianStructure | None:
+    """The cached :class:`~suspopt.driver.hessian.HessianStructure` for ``key``, or None."""
+    path = _file(key, HessianStructure)
+    try:
+        return HessianStructure.load(path) if path.is_file() else None
+    except Exception:  # unreadable or damaged: recompute
+        return None
+
+
+def store(key: str, coloring: Coloring | HessianStructure) -> Path | None:
+    """Save a coloring (or a Hessian structure) under ``key`` atomically; a read-only cache
+    is silently skipped."""
     directory = cache_dir()
     try:
         directory.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=directory, suffix='.tmp')
         os.close(fd)
         coloring.save(tmp)
-        path = directory / f'{key}.npz'
+        path = _file(key, type(coloring))
         os.replace(tmp, path)
         return path
     except OSError:

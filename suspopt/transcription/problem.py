@@ -1,6 +1,6 @@
 """The NLP of a study: every scenario's phase sharing one design (paper eq. 14; SPEC §5-§6).
 
-:class:`VehicleProblem` builds, from a :class:`~suspopt.config.StudyConfig`, one Dymos
+:class:`VehicleProblem` builds, from a :class:`~suspopt.spec.schema.StudyConfig`, one Dymos
 trajectory with one Radau phase per scenario (:mod:`suspopt.transcription.phase`),
 
 * the design variables as trajectory parameters scaled to [0, 1] by their bounds
@@ -11,8 +11,9 @@ trajectory with one Radau phase per scenario (:mod:`suspopt.transcription.phase`
   normalized weighted sum ``f_s = Σ w_k J_k / s_k``;
 * the objective ``Σ_s w_s f_s`` (``aggregate = "sum"``; IPOPT sees it divided by
   ``Σ_s w_s``) or the worst case ``t`` with ``f_s ≤ t`` (``"max"``, epigraph form);
-* :class:`~suspopt.driver.IpoptDriver` solving states and design together with the exact
-  sparse constraint Jacobian; the coloring is cached by model structure (:mod:`suspopt.cache`).
+* :class:`~suspopt.driver.IpoptDriver` as the problem's driver (``run_driver``), solving
+  states and design together with the exact sparse constraint Jacobian; the coloring is
+  cached by model structure (:mod:`suspopt.transcription.coloring_cache`).
 
 With ``optimize_design=False`` the design is held fixed and IPOPT only solves the
 collocation equations: this is how one design is *evaluated* by collocation.
@@ -65,6 +66,35 @@ Scales = tuple[dict[str, float], ...]
 SolveResult = SolveRecord
 
 
+#: the Hessians of the Lagrangian a problem can give IPOPT
+HESSIANS = ('limited-memory', 'exact', 'auto')
+
+
+#: the fewest segments (over all scenarios) for which ``'auto'`` takes the exact Hessian
+AUTO_EXACT_MIN_SEGMENTS = 200
+
+
+def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = True) -> str:
+    """The Hessian ``hessian='auto'`` stands for: ``'exact'`` for optimizing the
+    low-fidelity half car on at least :data:`AUTO_EXACT_MIN_SEGMENTS` segments in all
+    (long roads, several scenarios), where its fewer iterations on a sparse KKT system
+    beat L-BFGS's cheaper but more numerous ones; IPOPT's L-BFGS (``'limited-memory'``)
+    otherwise: the full car (denser node blocks make each exact step dearer than the
+    iterations it saves), the mixed fidelity (the multibody partials are finite
+    differences already), short roads (about even), and evaluations (a fixed design:
+    the collocation equations alone). ``benchmarks/ipopt_iterations.py --hessian
+    limited-memory,exact,auto`` measures both on every case."""
+    segments = sum(sc.segments for sc in config.scenarios())
+    if (
+        optimize_design
+        and fidelity == 'low'
+        and config.vehicle.model == 'half_car'
+        and segments >= AUTO_EXACT_MIN_SEGMENTS
+    ):
+        return 'exact'
+    return 'limited-memory'
+
+
 class VehicleProblem:
     """A set-up problem of one fidelity for one study description (all its scenarios).
 
@@ -80,6 +110,10 @@ class VehicleProblem:
     use_cache : reuse/save the total coloring in the coloring cache.
     totals : how the driver computes total derivatives
         (:data:`suspopt.driver.propagation.TOTALS_METHODS`).
+    hessian : the Hessian of the Lagrangian IPOPT uses (:data:`HESSIANS`):
+        ``'limited-memory'`` (IPOPT's L-BFGS), ``'exact'`` (second-order adjoints of the
+        model's nonlinear components, :mod:`suspopt.driver.hessian`), or ``'auto'``
+        (:func:`auto_hessian`).
     """
 
     def __init__(
@@ -93,6 +127,7 @@ class VehicleProblem:
         progress: Callable[[IterationInfo], None] | None = None,
         use_cache: bool = True,
         totals: str = 'auto',
+        hessian: str = 'auto',
     ):
         t0 = time.perf_counter()
         self.config, self.fidelity = config, fidelity
@@ -174,17 +209,25 @@ class VehicleProblem:
             cached = cache.load(self.cache_key) if use_cache else None
             self.coloring_from_cache = cached is not None
             opt = config.optimizer
-            self.driver = IpoptDriver(
-                p,
+            if hessian not in HESSIANS:
+                raise ValueError(f'hessian must be one of {HESSIANS}, got {hessian!r}')
+            if hessian == 'auto':
+                hessian = auto_hessian(config, fidelity, optimize_design)
+            self.hessian = hessian
+            self.driver = p.driver = IpoptDriver(
                 max_iter=opt.max_iter,
                 tol=opt.tol,
                 print_level=opt.print_level,
                 progress=progress,
                 watch=[self.design_var(n) for n in self.design_names],
                 coloring=cached,
-                opt_settings=opt.options,
                 totals=totals,
+                hessian=hessian,
+                hessian_structure=(
+                    cache.load_hessian(self.cache_key) if use_cache and hessian == 'exact' else None
+                ),
             )
+            self.driver.opt_settings.update(opt.options)
 
             self.recorder_path = None
             if recorder is not None:
@@ -350,12 +393,20 @@ class VehicleProblem:
                 'bound.t', max(self.scenario_objective(i) for i in range(len(self.scenarios)))
             )
         t1 = time.perf_counter()
+        c1 = time.process_time()
         computed = drv.coloring is None
         coloring = drv.total_coloring()
-        t2 = time.perf_counter()
         if computed and coloring is not None and self.use_cache:
             cache.store(self.cache_key, coloring)  # for other problems of this structure
-        drv.run(pinned=pinned)
+        if self.hessian == 'exact':
+            given = drv.options['hessian_structure']
+            hs = drv.hessian_structure()
+            if hs is not None and hs is not given and self.use_cache:
+                cache.store(self.cache_key, hs)
+        t2 = time.perf_counter()
+        c2 = time.process_time()
+        drv.options['pinned'] = pinned
+        p.run_driver()
         t3 = time.perf_counter()
         success = drv.status in (0, 1)
         self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
@@ -387,7 +438,9 @@ class VehicleProblem:
             iterations=len(drv.history) - 1 if drv.history else 0,
             function_evaluations=drv.n_function_evals,
             gradient_evaluations=drv.n_gradient_evals,
-            times=SolveTimes(coloring_s=t2 - t1, solve_s=t3 - t2 + (t1 - t0)),
+            times=SolveTimes(
+                coloring_s=t2 - t1, coloring_cpu_s=c2 - c1, solve_s=t3 - t2 + (t1 - t0)
+            ),
             wall_time_s=t3 - t0,
             coloring_from_cache=self.coloring_from_cache,
             multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},

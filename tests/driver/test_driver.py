@@ -47,13 +47,14 @@ def _problem(con=None, nan_above=np.inf, x0=(0.0, 0.0), **opts):
     p.model.add_objective('f')
     if con:
         p.model.add_constraint('g', **con)
+    opt_settings = opts.pop('opt_settings', {})
+    p.driver = p.ipopt = IpoptDriver(**opts)
+    p.driver.opt_settings.update(opt_settings)
     p.setup()
     p.set_val('x', x0[0])
     p.set_val('y', x0[1])
     p.final_setup()
-    pinned = opts.pop('pinned', ())
-    p.ipopt = IpoptDriver(p, **opts)
-    p.run = lambda: p.ipopt.run(pinned=pinned)
+    p.run = lambda: p.run_driver().success
     return p
 
 

@@ -17,8 +17,9 @@ PACKAGE = Path(__file__).resolve().parents[2] / 'suspopt'
 LAYERS: tuple[tuple[str, ...], ...] = (
     ('errors',),
     ('records', 'curves'),
-    ('road', 'multibody', 'driver', 'spectral'),
+    ('road', 'multibody', 'driver'),
     ('models',),
+    ('spectral',),
     ('spec',),
     ('transcription',),
     ('verification',),

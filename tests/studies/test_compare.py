@@ -125,7 +125,7 @@ def _stand_in(
     unverified: str | None = None,
     interrupt: str | None = None,
 ):
-    """Replace the solves of :mod:`suspopt.compare` by records of a made-up objective
+    """Replace the solves of :mod:`suspopt.studies.compare` by records of a made-up objective
     (a quadratic bowl per model); ``fail``/``interrupt``: the topology whose optimization
     raises a ModelError / KeyboardInterrupt; ``unverified``: a cell ``design|model`` whose
     verification fails."""

@@ -1,4 +1,4 @@
-"""The comfort/road-holding Pareto front (suspopt.pareto): one problem, reweighted."""
+"""The comfort/road-holding Pareto front (suspopt.studies.pareto): one problem, reweighted."""
 
 from __future__ import annotations
 

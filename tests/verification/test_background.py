@@ -1,4 +1,4 @@
-"""Background checks in forked children (suspopt.background): results come back as they
+"""Background checks in forked children (suspopt.verification.background): results come back as they
 would here, a child's exception is re-raised with its type, a child that dies is named,
 leaving the context stops the children, and without fork the jobs run in this process."""
 
