@@ -97,6 +97,8 @@ class State:
     units: str
     ref: float
     shape: tuple[int, ...]
+    #: one value per node (the chassis' states; (N,) arrays), not a vector per node
+    scalar: bool = False
 
 
 class Evaluates(Protocol):
@@ -139,16 +141,19 @@ def states(spec: VehicleSpec) -> tuple[State, ...]:
     travel, each with its rate; ``ref`` is a typical magnitude over a road feature of a
     few centimetres."""
     nc = (spec.layout.n,)
-    out = [State('z_C', 'v_C', 'm', 0.02, (1,)), State('v_C', 'zdd_C', 'm/s', 0.2, (1,))]
+    out = [
+        State('z_C', 'v_C', 'm', 0.02, (1,), scalar=True),
+        State('v_C', 'zdd_C', 'm/s', 0.2, (1,), scalar=True),
+    ]
     if spec.layout.has_pitch:
         out += [
-            State('theta_C', 'omega_C', 'rad', 0.01, (1,)),
-            State('omega_C', 'thdd_C', 'rad/s', 0.2, (1,)),
+            State('theta_C', 'omega_C', 'rad', 0.01, (1,), scalar=True),
+            State('omega_C', 'thdd_C', 'rad/s', 0.2, (1,), scalar=True),
         ]
     if spec.layout.has_roll:
         out += [
-            State('phi_C', 'p_C', 'rad', 0.01, (1,)),
-            State('p_C', 'phidd_C', 'rad/s', 0.2, (1,)),
+            State('phi_C', 'p_C', 'rad', 0.01, (1,), scalar=True),
+            State('p_C', 'phidd_C', 'rad/s', 0.2, (1,), scalar=True),
         ]
     out += [State('z_W', 'v_W', 'm', 0.05, nc), State('v_W', 'zdd_W', 'm/s', 1.0, nc)]
     if spec.seats:  # the seats' ISO 2631-1 filters, states of the size of the acceleration
@@ -429,12 +434,15 @@ def constraint_residual(assembly: VehicleAssembly, values: Mapping[str, Any]) ->
 class AssemblyEvaluator:
     """The vehicle assembly as a function of its signals: given the states (chassis (N,),
     per corner (N, corners)), ``time`` (N,) and the design variables, every block's
-    equation in order adds its outputs (the time marching's right-hand side)."""
+    equation in order adds its outputs (the time marching's right-hand side). The blocks
+    named in ``skip`` are left out (their outputs are then given, e.g. the road's)."""
 
-    def __init__(self, assembly: VehicleAssembly):
+    def __init__(self, assembly: VehicleAssembly, skip: tuple[str, ...] = ()):
         self.assembly = assembly
         self._steps = [
-            (block.make(1), dict(block.inputs), dict(block.outputs)) for block in assembly.blocks
+            (block.make(1), dict(block.inputs), dict(block.outputs))
+            for block in assembly.blocks
+            if block.name not in skip
         ]
 
     def __call__(self, signals: dict[str, Any]) -> dict[str, Any]:

@@ -144,7 +144,7 @@ def _parse_weights(data: Any, terms: tuple[str, ...], errs: Problems) -> dict[st
         if len(data) not in (len(paper), len(terms)):
             errs.add(
                 'objective.weights',
-                f'needs {len(paper)} values (the paper\'s terms: {", ".join(paper)}) or '
+                f"needs {len(paper)} values (the paper's terms: {', '.join(paper)}) or "
                 f'{len(terms)} (every term: {", ".join(terms)}), got {len(data)}',
             )
             return {}

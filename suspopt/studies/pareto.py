@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from suspopt.models.metrics import METRICS, term_kind
 from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
 from suspopt.records.pareto import ParetoFront, ParetoInitial, ParetoPoint
 from suspopt.records.solve import SolveRecord
@@ -30,36 +31,55 @@ from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
 
 
-def _split(terms: tuple[str, ...] | list[str]) -> tuple[list[str], list[str]]:
-    chassis = [t for t in terms if not t.startswith('wheel_')]
-    return chassis, [t for t in terms if t.startswith('wheel_')]
+def sides(config: StudyConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The two sides of the trade-off: the study's weighted comfort terms and its
+    weighted road-holding terms (:data:`~suspopt.models.metrics.METRICS`' groups); where
+    the study weights none of a side, the paper's (the chassis accelerations, the wheels'
+    displacements)."""
+    terms, w = config.terms(), config.objective.weights
+    out = []
+    for group, paper in (('comfort', config.layout().dofs), ('road_holding', ('wheel_',))):
+        weighted = tuple(
+            t for t in terms if METRICS[term_kind(t)].group == group and w.get(t, 0.0) > 0.0
+        )
+        out.append(weighted or tuple(t for t in terms if t in paper or t.startswith(paper)))
+    return out[0], out[1]
 
 
-def comfort_share_weights(terms: tuple[str, ...] | list[str], alpha: float) -> dict[str, float]:
-    """Objective weights of comfort share ``alpha`` in [0, 1]."""
-    chassis, wheels = _split(terms)
+def comfort_share_weights(config: StudyConfig, alpha: float) -> dict[str, float]:
+    """Objective weights of comfort share ``alpha`` in [0, 1]: α/n on each of the n
+    comfort terms, (1 - α)/m on each of the m road-holding terms (:func:`sides`)."""
+    comfort, road = sides(config)
     a = float(alpha)
-    return {t: (a / len(chassis) if t in chassis else (1.0 - a) / len(wheels)) for t in terms}
+    out = dict.fromkeys(config.terms(), 0.0)
+    out.update({t: a / len(comfort) for t in comfort})
+    out.update({t: (1.0 - a) / len(road) for t in road})
+    return out
 
 
 def comfort_and_road_holding(
-    terms: dict[str, float], scales: dict[str, float]
+    config: StudyConfig, terms: dict[str, float], scales: dict[str, float]
 ) -> tuple[float, float]:
-    """C (mean normalized chassis term) and R (mean normalized wheel term) of ``terms``."""
-    chassis, wheels = _split(list(terms))
+    """C (the mean normalized comfort term) and R (the mean normalized road-holding
+    term) of ``terms`` (:func:`sides`)."""
+    comfort, road = sides(config)
     return (
-        sum(terms[t] / scales[t] for t in chassis) / len(chassis),
-        sum(terms[t] / scales[t] for t in wheels) / len(wheels),
+        sum(terms[t] / scales[t] for t in comfort) / len(comfort),
+        sum(terms[t] / scales[t] for t in road) / len(road),
     )
 
 
 def point(
-    alpha: float, weights: dict[str, float], res: SolveRecord, scales: dict[str, float]
+    config: StudyConfig,
+    alpha: float,
+    weights: dict[str, float],
+    res: SolveRecord,
+    scales: dict[str, float],
 ) -> ParetoPoint:
     """One point of the front from an optimization's record."""
     ok = res.success
     J = res.terms if ok else res.terms_at_stop
-    C, R = comfort_and_road_holding(J, scales) if J else (None, None)
+    C, R = comfort_and_road_holding(config, J, scales) if J else (None, None)
     return ParetoPoint(
         alpha=float(alpha),
         weights=weights,
@@ -168,7 +188,7 @@ class ParetoRun:
             verify=False,
         )
         J = init.terms
-        C, R = comfort_and_road_holding(J, self.scales[0]) if J else (None, None)
+        C, R = comfort_and_road_holding(self.config, J, self.scales[0]) if J else (None, None)
         return ParetoInitial(design=start, success=init.success, terms=J, comfort=C, road_holding=R)
 
     def _point(
@@ -176,7 +196,7 @@ class ParetoRun:
     ) -> tuple[dict[str, float], Guess]:
         """Optimize comfort share ``alpha`` and keep the point; the next one's start: this
         optimum (trajectory included) if it converged, else the last converged one."""
-        w = comfort_share_weights(self.config.terms(), alpha)
+        w = comfort_share_weights(self.config, alpha)
         self.say(f'comfort share {alpha:.3f}')
         try:
             res = optimize(
@@ -191,9 +211,9 @@ class ParetoRun:
             )
         except Interrupted as stop:
             if stop.result is not None and stop.result.success:
-                self.front.points.append(point(alpha, w, stop.result, self.scales[0]))
+                self.front.points.append(point(self.config, alpha, w, stop.result, self.scales[0]))
                 self.save()
             raise
-        self.front.points.append(point(alpha, w, res, self.scales[0]))
+        self.front.points.append(point(self.config, alpha, w, res, self.scales[0]))
         self.save()
         return (res.design, 'keep') if res.success else (start, 'auto')

@@ -331,7 +331,7 @@ class VehicleProblem:
         values = {}
         for state in assembly.states:
             val = p.get_val(ts + state.name)
-            values[state.name] = val[:, 0] if state.shape == (1,) else val
+            values[state.name] = val[:, 0] if state.scalar else val
         for name in assembly.timeseries:
             val = p.get_val(ts + name)
             values[name] = val[:, 0] if val.ndim == 2 and val.shape[1] == 1 else val

@@ -78,7 +78,7 @@ class VehicleRHS:
         out, k = {}, 0
         for st, size in zip(self.assembly.states, self.sizes):
             block = y[k : k + size]
-            out[st.name] = block[0] if st.shape == (1,) else block.T
+            out[st.name] = block[0] if st.scalar else block.T
             k += size
         return out
 

@@ -55,12 +55,8 @@ def test_evaluate_prints_json(capsys):
     )
     assert code == 0
     res = json.loads(out)
-    assert KEYS <= set(res) and res['scales'] == {
-        'heave': 0.1,
-        'pitch': 0.01,
-        'wheel_1': 1.0,
-        'wheel_2': 1.0,
-    }
+    paper = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
+    assert KEYS <= set(res) and {t: res['scales'][t] for t in paper} == paper
     assert res['verified'] is True
     assert res['design']['k_S1'] == 37500.0 and res['success']
 
@@ -180,7 +176,8 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
     for key, ev in sa['evaluations'].items():  # the recorded comparison is consistent
         v, coll = ev['verification']['comparison'], ev['terms']
         tm = v['scenarios'][0]['terms']
-        diff = max(abs(coll[k] / tm[k] - 1.0) for k in tm)
+        weighted = [k for k in tm if ev['weights'][k] > 0.0]  # the check's terms
+        diff = max(abs(coll[k] / tm[k] - 1.0) for k in weighted)
         assert v['max_rel_diff'] == pytest.approx(diff, rel=1e-12)
         assert ev['verified'] is (diff <= v['tolerance'])
         assert ev['verification']['state'] == ('verified' if ev['verified'] else 'not_verified')
@@ -227,7 +224,8 @@ def test_linkage_beyond_its_range_exits_1_naming_the_cause(tmp_path, capsys):
         capsys,
     )
     assert code == 1 and time.perf_counter() - t0 < 30.0
-    assert 'toggle' in err and 'edge of its range' in err and 'Traceback' not in err
+    assert "mechanism's range" in err or 'edge of its range' in err, err
+    assert 'Traceback' not in err
     out = tmp_path / 'opt'
     code, _, err = _run(
         [

@@ -88,12 +88,7 @@ def _runtime_imports(path: Path) -> set[str]:
         if isinstance(node, ast.If) and 'TYPE_CHECKING' in ast.unparse(node.test)
         for n in ast.walk(node)
     }
-    return {
-        m
-        for node in ast.walk(tree)
-        if id(node) not in skip
-        for _, m in _imports_of(node)
-    }
+    return {m for node in ast.walk(tree) if id(node) not in skip for _, m in _imports_of(node)}
 
 
 def _imports_of(node: ast.AST) -> list[tuple[int, str]]:
@@ -125,7 +120,7 @@ def test_no_import_cycles():
             if dep == node or dep not in graph:
                 continue
             if state.get(dep) == 1:
-                cycle = stack[stack.index(dep):] + [dep]
+                cycle = stack[stack.index(dep) :] + [dep]
                 raise AssertionError('import cycle: ' + ' -> '.join(cycle))
             if dep not in state:
                 visit(dep)

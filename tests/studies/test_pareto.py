@@ -28,7 +28,7 @@ def front(coarse, tmp_path_factory):
     return out, run_pareto(coarse, out, fidelity='low', points=POINTS)
 
 
-def test_front_is_a_front(front, scales):
+def test_front_is_a_front(front, coarse, scales):
     """Weighted sums: as the comfort share grows, comfort C never gets worse and road
     holding R never gets better; no computed point dominates another; every f_α is the
     weighted sum of its own J_k."""
@@ -52,7 +52,7 @@ def test_front_is_a_front(front, scales):
         f = sum(p.weights[t] * p.result.terms[t] / s[t] for t in s)
         assert p.result.objective == pytest.approx(f, rel=1e-12)
         assert (p.comfort, p.road_holding) == pytest.approx(
-            comfort_and_road_holding(p.result.terms, s), rel=1e-12
+            comfort_and_road_holding(coarse, p.result.terms, s), rel=1e-12
         )
 
 
@@ -62,7 +62,7 @@ def test_reweighted_problem_equals_a_fresh_optimization(front, coarse, scales, i
     problem built with those weights gives from the initial design."""
     _, data = front
     p = data.points[index]
-    assert p.weights == comfort_share_weights(coarse.terms(), p.alpha)
+    assert p.weights == comfort_share_weights(coarse, p.alpha)
     assert p.result.weights == p.weights  # the record says what it minimized
     fresh = optimize(coarse.with_weights(p.weights), 'low', scales=scales, verify=False)
     assert fresh.success
