@@ -1,0 +1,136 @@
+"""Render the results shown in the README and in ``docs/results.md`` from runs' own output.
+
+Each section is a results directory written by a suspopt command (its ``table.md`` and
+``figures/``); this script only copies them in, so a number on those pages is re-measured
+by running the command again, then this script — never by a hand edit::
+
+    python docs/render.py --run          # run every command below into results/, then render
+    python docs/render.py                # render from the results/ directories already there
+
+A section whose directory is missing is left as it was.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / 'results'
+FIGURES = ROOT / 'docs' / 'figures'
+
+#: (name, the command that writes results/<name>, title, figures to show, where it goes)
+SECTIONS = (
+    (
+        'study',
+        ['study', '--out', 'results/study', '--overwrite', '--quiet'],
+        "The paper's two-step study (half car, two bumps at 10 m/s)",
+        ('optima.png',),
+        'README.md',
+    ),
+    (
+        'full_car',
+        ['study', '--config', 'results/full_car.toml', '--out', 'results/full_car', '--overwrite',
+         '--quiet'],
+        'The default full car (BMW E90) as an engineering study',
+        ('optima.png', 'road.png'),
+        'docs/results.md',
+    ),
+    (
+        'robust',
+        ['robust', '--config', 'examples/robust.toml', '--out', 'results/robust', '--overwrite',
+         '--quiet'],
+        'Robust design over four load cases',
+        ('robustness.png',),
+        'docs/results.md',
+    ),
+    (
+        'coupling',
+        ['coupling', '--out', 'results/coupling', '--overwrite', '--quiet'],
+        'The coupling of the linkage: on the ground (the paper) or on the chassis',
+        ('coupling.png',),
+        'docs/results.md',
+    ),
+    (
+        'compare',
+        ['compare', '--out', 'results/compare', '--overwrite', '--quiet'],
+        'Suspension topologies side by side',
+        ('compare_cross.png', 'compare_kinematics.png'),
+        'docs/results.md',
+    ),
+    (
+        'pareto',
+        ['pareto', '--out', 'results/pareto', '--overwrite', '--quiet'],
+        'Ride comfort against road holding (Pareto front, low fidelity)',
+        ('pareto.png',),
+        'docs/results.md',
+    ),
+)
+
+
+def run(names: set[str] | None) -> None:
+    """Run the commands of the sections (all, or ``names``) into ``results/``."""
+    RESULTS.mkdir(exist_ok=True)
+    init = ['init', '--model', 'full_car', 'results/full_car.toml', '--overwrite']
+    subprocess.run([sys.executable, '-m', 'suspopt.cli', *init], cwd=ROOT, check=True)
+    for name, command, *_ in SECTIONS:
+        if names is None or name in names:
+            print(f'running suspopt {" ".join(command)}', flush=True)
+            subprocess.run([sys.executable, '-m', 'suspopt.cli', *command], cwd=ROOT, check=False)
+
+
+def section(name: str, title: str, figures: tuple[str, ...], level: str) -> str | None:
+    """The Markdown of one section from ``results/<name>``, figures copied to docs/."""
+    directory = RESULTS / name
+    table = directory / 'table.md'
+    if not table.is_file():
+        return None
+    FIGURES.mkdir(parents=True, exist_ok=True)
+    lines = [f'{level} {title}', '', table.read_text().strip(), '']
+    prefix = '' if level == '##' and name == 'study' else '../'
+    for fig in figures:
+        src = directory / 'figures' / fig
+        if src.is_file():
+            dst = FIGURES / f'{name}_{fig}'
+            shutil.copyfile(src, dst)
+            where = 'docs/figures' if prefix == '' else 'figures'
+            lines += [f'![{name} {fig[:-4]}]({where}/{dst.name})', '']
+    return '\n'.join(lines)
+
+
+def replace_between(text: str, name: str, body: str) -> str:
+    begin, end = f'<!-- results:{name} -->', f'<!-- /results:{name} -->'
+    if begin not in text or end not in text:
+        raise SystemExit(f'no markers {begin} ... {end}')
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    return f'{head}{begin}\n{body}\n{end}{tail}'
+
+
+def render() -> None:
+    for name, _, title, figures, page in SECTIONS:
+        path = ROOT / page
+        level = '###' if page == 'README.md' else '##'
+        body = section(name, title, figures, level)
+        if body is None:
+            print(f'{name}: no results/{name}/table.md, section left as it was')
+            continue
+        path.write_text(replace_between(path.read_text(), name, body))
+        print(f'{name}: rendered into {page}')
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--run', action='store_true', help='run the commands first')
+    parser.add_argument('--only', nargs='*', help='section names (default: all)')
+    args = parser.parse_args()
+    if args.run:
+        run(set(args.only) if args.only else None)
+    render()
+
+
+if __name__ == '__main__':
+    main()
