@@ -124,6 +124,7 @@ def start_cluster(
                 processes=True,
                 threads_per_worker=1,
                 dashboard_address=None,
+                scheduler_kwargs=NO_DASHBOARD,
                 silence_logs=logging.CRITICAL,
                 preload=['suspopt.sweep'],
             )
@@ -135,6 +136,13 @@ def start_cluster(
         client = Client(cluster)
     say(f'local cluster: {n} worker process(es), one thread each ({worker_start}ed)')
     return client, cluster
+
+
+#: the scheduler's HTTP server (health, metrics) on a free port of the loopback: its
+#: default, 8787, is often taken (another cluster's dashboard), and the warning Dask then
+#: prints from its event loop while the nanny forks a worker can leave the worker waiting
+#: forever on the lock of a stream that thread held at the fork
+NO_DASHBOARD = {'dashboard': False, 'dashboard_address': '127.0.0.1:0'}
 
 
 def _allowed_failures(dask_scheduler: Any) -> int:

@@ -19,7 +19,16 @@ from typing import Any
 
 from suspopt.errors import ConfigError
 from suspopt.spec.values import Problems, check, did_you_mean, parse_dataclass
-from suspopt.sweep.tasks import InputFile, InputFiles, Task, digest, fmt, identity, safe
+from suspopt.sweep.tasks import (
+    InputFile,
+    InputFiles,
+    Task,
+    config_identity,
+    digest,
+    fmt,
+    identity,
+    safe,
+)
 
 COMMANDS = ('optimize', 'study')
 FIDELITIES = ('low', 'mixed')
@@ -403,6 +412,7 @@ def _tasks(
     valid = _Validated(base, path.parent)
     start_ids: dict[str, int] = {}
     seen: dict[str, int] = {}
+    configs: dict[int, tuple[str, tuple[InputFile, ...]]] = {}  # by id: valid.memo holds them
     tasks: list[Task] = []
     for i, values in enumerate(combos):
         where = (
@@ -423,7 +433,10 @@ def _tasks(
         sid = json.dumps(start, sort_keys=True)
         if start is not None:
             start_ids.setdefault(sid, len(start_ids))
-        ident, files = identity(spec.command, fid, start, cfg, spec.verify, inputs)
+        if id(cfg) not in configs:
+            configs[id(cfg)] = config_identity(cfg, inputs)
+        cfg_id, files = configs[id(cfg)]
+        ident = identity(spec.command, fid, start, cfg_id, spec.verify)
         if ident in seen:
             errs.add(
                 where, f'the same task as tasks[{seen[ident]}]' if listed else 'the same task twice'

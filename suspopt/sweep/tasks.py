@@ -222,24 +222,33 @@ class Task:
         )
 
 
+def config_identity(
+    config: dict[str, Any], inputs: InputFiles
+) -> tuple[str, tuple[InputFile, ...]]:
+    """The hash of a study description with its files standing by name and content, and
+    those files."""
+    files = inputs.of(config)
+    tokens = {value: f.token for value, f in files.items()}
+    return digest(with_inputs(config, tokens)), tuple(dict.fromkeys(files.values()))
+
+
 def identity(
     command: str,
     fidelity: str | None,
     start: dict[str, float] | None,
-    config: dict[str, Any],
+    config_identity: str,
     verify: bool,
-    inputs: InputFiles,
-) -> tuple[str, tuple[InputFile, ...]]:
-    """A task's identity hash (see the module docstring) and the files it reads."""
-    files = inputs.of(config)
-    ident = {
-        'command': command,
-        'fidelity': fidelity,
-        'start': start,
-        'config': with_inputs(config, {v: f.token for v, f in files.items()}),
-        'verify': verify,
-    }
-    return digest(ident), tuple(dict.fromkeys(files.values()))
+) -> str:
+    """A task's identity hash (see the module docstring)."""
+    return digest(
+        {
+            'command': command,
+            'fidelity': fidelity,
+            'start': start,
+            'config': config_identity,
+            'verify': verify,
+        }
+    )
 
 
 # ------------------------------------------------------------------ the record
