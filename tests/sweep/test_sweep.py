@@ -846,7 +846,11 @@ def test_bookkeeping_per_finished_task_does_not_grow_with_the_sweep(tmp_path):
     """No-op tasks through the real engine and bookkeeping, 10 and 100 of them: every
     byte the sweep's process writes (records, sweep.json, summary, figures) per task does
     not grow with the number of tasks (a summary rewritten per task: ten times more),
-    and the records cost the same per task."""
+    and the records cost the same per task. ``render`` (what ``suspopt report DIR`` calls
+    for a sweep's directory) writes the same summary again from the records alone."""
+    from suspopt.sweep.store import manifest_kind
+    from suspopt.sweep.summary import render
+
     written, appended = {}, {}
     for n in (10, 100):
         path = _files(tmp_path, f'study = "study.toml"\nverify = false\n[multistart]\nn = {n}\n')
@@ -862,36 +866,45 @@ def test_bookkeeping_per_finished_task_does_not_grow_with_the_sweep(tmp_path):
     assert appended[100] == pytest.approx(appended[10], rel=0.05), appended
     assert written[100] < 4096, written  # a record, a row, a task's description
 
-
-def test_report_renders_a_sweep_directory_from_its_records(tmp_path):
-    """``render`` (what ``suspopt report DIR`` calls for a sweep) writes the summary again
-    from the records alone; a cut last line (a writer killed mid-line) is no record, and
-    the next run drops it before appending."""
-    from suspopt.sweep.store import manifest_kind
-    from suspopt.sweep.summary import render
-
-    path = _files(tmp_path, PRODUCT.replace('[10.0, 15.0]', '[10.0, 15.0, 12.0]'))
-    out = tmp_path / 'out'
-    run_sweep(path, out, workers=2, log=lambda m: None, task_fn=noop_task)
+    out = tmp_path / 'o10'
     assert manifest_kind(out) == 'sweep'
     table, csv = (out / 'table.md').read_text(), (out / 'summary.csv').read_text()
-    for p in ('table.md', 'summary.csv'):
-        (out / p).unlink()
-    written = render(out)
-    assert {p.name for p in written} >= {'table.md', 'summary.csv', 'maneuver.speed.png'}
+    for name in ('table.md', 'summary.csv'):
+        (out / name).unlink()
+    assert {p.name for p in render(out)} == {'table.md', 'summary.csv', 'start.png'}
     assert (out / 'table.md').read_text() == table and (out / 'summary.csv').read_text() == csv
-
-    log = _log(out)
-    last = log[:-1].rsplit(b'\n', 1)[1]
-    (out / 'tasks' / 'records.jsonl').write_bytes(log[: -len(last) - 1] + last[:40])
-    render(out)
-    assert (
-        'Sweep sweep.toml: 6 tasks, 5 done, 0 failed, 1 pending.' in (out / 'table.md').read_text()
-    )
-    again = run_sweep(path, out, workers=1, log=lambda m: None, task_fn=noop_task)
-    assert again.ran == 1 and len(_records(out)) == 6 and _log(out).count(b'\n') == 6
     with pytest.raises(ConfigError, match='no manifest.json'):
         render(tmp_path)
+
+
+def test_records_are_appended_a_cut_line_is_no_record(tmp_path):
+    """The records file: a task's last line is its record; a last line cut short (a
+    writer killed mid-line) is no record and is dropped before the next append; a damaged
+    line elsewhere is said and skipped."""
+    from suspopt.sweep.store import RecordLog
+    from suspopt.sweep.tasks import TaskRecord
+
+    log = RecordLog(tmp_path)
+    for rec in (
+        TaskRecord('a', 'failed', error='x'),
+        TaskRecord('b', 'done'),
+        TaskRecord('a', 'done'),
+    ):
+        log.append(rec)
+    log.close()
+    path = tmp_path / 'tasks' / 'records.jsonl'
+    whole = path.read_bytes()
+    assert {n: r.state for n, r in read_records(tmp_path).items()} == {'a': 'done', 'b': 'done'}
+    path.write_bytes(whole + b'{"name": "c", "sta')
+    assert set(read_records(tmp_path)) == {'a', 'b'}
+    log = RecordLog(tmp_path)
+    log.append(TaskRecord('c', 'done'))
+    log.close()
+    assert path.read_bytes().startswith(whole) and set(read_records(tmp_path)) == {'a', 'b', 'c'}
+    path.write_bytes(whole.replace(b'"name":"b"', b'"name":"b', 1))
+    said: list[str] = []
+    assert set(read_records(tmp_path, said.append)) == {'a'}
+    assert said == [f'{path}: line 2 unreadable, ignored (its task reruns)']
 
 
 def test_a_killed_commands_lock_is_not_held_by_its_forked_children(tmp_path):
