@@ -241,13 +241,20 @@ def _interrupt(path: Path, out: Path, when) -> None:
     assert 'interrupted: cancelling pending tasks' in err and 'Traceback' not in err
     assert children
     deadline = time.monotonic() + 10
-    while time.monotonic() < deadline and [p for p in children if psutil.pid_exists(p)]:
+    while time.monotonic() < deadline and [p for p in children if _alive(p)]:
         time.sleep(0.1)
-    assert not [
-        p
-        for p in children
-        if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE
-    ]
+    assert not [p for p in children if _alive(p)]
+
+
+def _alive(pid: int) -> bool:
+    """A process that runs (a zombie, dead but not yet reaped by whoever adopted it, is
+    gone)."""
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
 
 
 # --------------------------------------------------------------------------- input checks
