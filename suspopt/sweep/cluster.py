@@ -9,12 +9,13 @@ a second instead of importing it each). ``dask worker --preload suspopt.sweep`` 
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import logging
 import os
 import signal
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from types import FrameType
 from typing import Any
 
@@ -28,6 +29,25 @@ class Terminated(KeyboardInterrupt):
 def sweep_sigterm(signum: int, frame: FrameType | None) -> None:
     """The sweep client's SIGTERM: stop like Ctrl-C (cancel pending, keep finished)."""
     raise Terminated()
+
+
+@contextlib.contextmanager
+def quiet_dask_logs() -> Iterator[None]:
+    """Dask's log records off (its ``distributed`` logger at CRITICAL) while a sweep runs;
+    a worker forked from this process inherits the level. Dask's own silencing raises its
+    stream handler's level only: its records still reach the process's other handlers
+    (the root logger's: an application's, pytest's), written by Dask's event-loop thread.
+    A worker forked while that thread held a handler's stream (its buffer's lock) waits
+    for that lock forever at its first log line, and the cluster never starts."""
+    import distributed  # noqa: F401  (its logging configuration first, then ours)
+
+    logger = logging.getLogger('distributed')
+    old = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(old)
 
 
 def main_thread() -> bool:
@@ -139,9 +159,8 @@ def start_cluster(
 
 
 #: the scheduler's HTTP server (health, metrics) on a free port of the loopback: its
-#: default, 8787, is often taken (another cluster's dashboard), and the warning Dask then
-#: prints from its event loop while the nanny forks a worker can leave the worker waiting
-#: forever on the lock of a stream that thread held at the fork
+#: default, 8787, is often taken (another cluster's dashboard), and Dask then warns on
+#: the terminal
 NO_DASHBOARD = {'dashboard': False, 'dashboard_address': '127.0.0.1:0'}
 
 

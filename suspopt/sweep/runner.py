@@ -26,6 +26,7 @@ takes (:class:`~suspopt.output.rundir.DirectoryLock`).
 
 from __future__ import annotations
 
+import os
 import queue
 import re
 import signal
@@ -41,7 +42,14 @@ from typing import Any
 
 from suspopt.errors import ConfigError, RunError, SuspoptError
 from suspopt.output.rundir import DirectoryLock
-from suspopt.sweep.cluster import deaths, main_thread, shutdown, start_cluster, sweep_sigterm
+from suspopt.sweep.cluster import (
+    deaths,
+    main_thread,
+    quiet_dask_logs,
+    shutdown,
+    start_cluster,
+    sweep_sigterm,
+)
 from suspopt.sweep.spec import Sweep, load_sweep
 from suspopt.sweep.store import RecordLog, prepare
 from suspopt.sweep.summary import write_summary
@@ -64,6 +72,20 @@ class Outcome:
     timings: dict[str, float] = field(default_factory=dict)
     #: bytes appended to the records by this run (its whole per-task bookkeeping)
     record_bytes: int = 0
+
+
+def _stderr_line(msg: str) -> None:
+    """A progress line on stderr, written past Python's stream buffer: a worker that a
+    nanny forks (restarts) at that moment does not inherit the buffer's lock held, which
+    its first warning on stderr would wait for forever (:func:`quiet_dask_logs`)."""
+    line = f'[sweep] {msg}\n'
+    try:
+        fd = sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):  # a stream without a file (captured)
+        print(line, end='', file=sys.stderr, flush=True)
+        return
+    sys.stderr.flush()
+    os.write(fd, line.encode())
 
 
 def _check_args(workers: int | None, scheduler: str | None, worker_start: str) -> str:
@@ -100,7 +122,7 @@ def run_sweep(
     workers: ``fork`` (from this process, suspopt imported), ``spawn`` (a fresh
     interpreter each, Dask's default) or ``auto`` (fork on Linux)."""
     t0 = time.perf_counter()
-    say = log or (lambda msg: print(f'[sweep] {msg}', file=sys.stderr, flush=True))
+    say = log or _stderr_line
     worker_start = _check_args(workers, scheduler, worker_start)
     sweep = load_sweep(sweep_file)
     out = Path(out_dir)
@@ -213,6 +235,10 @@ class _Engine:
 
     def run(self, workers: int | None, scheduler: str | None, worker_start: str) -> str | None:
         """Run the tasks; what stopped them early (a storage failure), or None."""
+        with quiet_dask_logs():
+            return self._run(workers, scheduler, worker_start)
+
+    def _run(self, workers: int | None, scheduler: str | None, worker_start: str) -> str | None:
         from distributed import KilledWorker
 
         self.killed_type = KilledWorker

@@ -914,6 +914,54 @@ def test_records_are_appended_a_cut_line_is_no_record(tmp_path):
     assert said == [f'{path}: line 2 unreadable, ignored (its task reruns)']
 
 
+def test_a_forked_worker_does_not_log_into_a_stream_held_at_the_fork(tmp_path):
+    """A handler of this process (the root logger's) whose stream a thread holds (its
+    write blocked on a full pipe) while the local cluster forks its worker: the worker
+    inherits the stream's lock held; were it to log (Dask logs its preload at start), it
+    would wait for it forever and the sweep would never start."""
+    import logging
+    import threading
+
+    read_end, write_end = os.pipe()
+    stream = open(write_end, 'w')  # a TextIOWrapper on a BufferedWriter, as stderr
+    handler = logging.StreamHandler(stream)
+    root = logging.getLogger()
+    old_level = root.level
+    root.addHandler(handler)
+    root.setLevel(logging.INFO)
+    writer = threading.Thread(
+        target=lambda: logging.getLogger('distributed.elsewhere').info('x' * (1 << 20))
+    )
+    try:
+        writer.start()  # fills the pipe, then waits inside write() holding the stream
+        time.sleep(0.2)
+        path = _files(tmp_path, 'study = "study.toml"\nverify = false\n[multistart]\nn = 2\n')
+        done: dict = {}
+        sweep = threading.Thread(
+            target=lambda: done.update(
+                outcome=run_sweep(
+                    path, tmp_path / 'out', workers=1, log=lambda m: None, task_fn=noop_task
+                )
+            ),
+            daemon=True,
+        )
+        sweep.start()
+        sweep.join(timeout=60)
+        assert not sweep.is_alive(), 'the forked worker waits for a lock held at the fork'
+        assert done['outcome'].exit_code == 0
+    finally:
+        root.removeHandler(handler)
+        root.setLevel(old_level)
+        drained = threading.Thread(target=lambda: os.read(read_end, 1 << 22), daemon=True)
+        while writer.is_alive():
+            if not drained.is_alive():
+                drained = threading.Thread(target=lambda: os.read(read_end, 1 << 20), daemon=True)
+                drained.start()
+            writer.join(timeout=0.1)
+        stream.close()
+        os.close(read_end)
+
+
 def test_a_killed_commands_lock_is_not_held_by_its_forked_children(tmp_path):
     """The lock is the process's, not its children's: a process that takes it, forks
     (as a sweep forks its Dask workers) and is killed leaves the directory free at once,
