@@ -915,23 +915,25 @@ def test_records_are_appended_a_cut_line_is_no_record(tmp_path):
 
 
 def test_a_forked_worker_does_not_log_into_a_stream_held_at_the_fork(tmp_path):
-    """A handler of this process (the root logger's) whose stream a thread holds (its
-    write blocked on a full pipe) while the local cluster forks its worker: the worker
-    inherits the stream's lock held; were it to log (Dask logs its preload at start), it
-    would wait for it forever and the sweep would never start."""
+    """A log handler of this process (the root logger's, as pytest's or an application's),
+    whose stream a thread holds (its write waits on a full pipe) while the local cluster
+    forks its worker: the worker inherits the stream's lock held. Were Dask's records to
+    reach the handler in the worker (Dask logs its preload at start), the worker would
+    wait for that lock forever and the sweep would never start. (The handler takes the
+    workers' records only: this process's own would wait here too.)"""
     import logging
     import threading
 
     read_end, write_end = os.pipe()
     stream = open(write_end, 'w')  # a TextIOWrapper on a BufferedWriter, as stderr
     handler = logging.StreamHandler(stream)
+    me = os.getpid()
+    handler.addFilter(lambda record: os.getpid() != me)
     root = logging.getLogger()
     old_level = root.level
     root.addHandler(handler)
     root.setLevel(logging.INFO)
-    writer = threading.Thread(
-        target=lambda: logging.getLogger('distributed.elsewhere').info('x' * (1 << 20))
-    )
+    writer = threading.Thread(target=lambda: (stream.write('x' * (1 << 20)), stream.flush()))
     try:
         writer.start()  # fills the pipe, then waits inside write() holding the stream
         time.sleep(0.2)
@@ -952,11 +954,8 @@ def test_a_forked_worker_does_not_log_into_a_stream_held_at_the_fork(tmp_path):
     finally:
         root.removeHandler(handler)
         root.setLevel(old_level)
-        drained = threading.Thread(target=lambda: os.read(read_end, 1 << 22), daemon=True)
         while writer.is_alive():
-            if not drained.is_alive():
-                drained = threading.Thread(target=lambda: os.read(read_end, 1 << 20), daemon=True)
-                drained.start()
+            os.read(read_end, 1 << 20)
             writer.join(timeout=0.1)
         stream.close()
         os.close(read_end)
