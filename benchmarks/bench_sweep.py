@@ -20,7 +20,6 @@ no-op tasks through the engine, its run time per task; each against one optimiza
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing as mp
 import os
 import statistics
@@ -32,7 +31,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import machine  # noqa: E402
 
-from suspopt.sweep.runner import load_sweep, noop_task, run_sweep, run_task  # noqa: E402
+from suspopt.sweep import load_sweep, noop_task, run_sweep, run_task  # noqa: E402
+from suspopt.sweep.store import read_records  # noqa: E402
 
 
 def _sweep_file(root: Path, n: int, segments: int) -> Path:
@@ -51,8 +51,8 @@ def _one_thread() -> None:
     threadpool_limits(1)
 
 
-def _records(out: Path) -> list[dict]:
-    return [json.loads(p.read_text()) for p in out.glob('tasks/*/task.json')]
+def _records(out: Path) -> list:
+    return list(read_records(out).values())
 
 
 def main() -> int:
@@ -83,15 +83,15 @@ def main() -> int:
         t = time.perf_counter()
         serial = [run_task(task.payload(root / 'serial', None)) for task in sweep.tasks]
         serial_wall = time.perf_counter() - t
-        assert all(r['state'] == 'done' for r in serial), [r['error'] for r in serial]
-        serial_times = [r['wall_time_s'] for r in serial]
+        assert all(r.state == 'done' for r in serial), [r.error for r in serial]
+        serial_times = [r.wall_time_s for r in serial]
 
         payloads = [task.payload(root / 'bare', None) for task in sweep.tasks]
         t = time.perf_counter()
         with mp.get_context('fork').Pool(args.workers, initializer=_one_thread) as pool:
             bare = list(pool.imap_unordered(run_task, payloads, chunksize=1))
         bare_wall = time.perf_counter() - t
-        assert all(r['state'] == 'done' for r in bare), [r['error'] for r in bare]
+        assert all(r.state == 'done' for r in bare), [r.error for r in bare]
 
         sweeps = {}
         for start in starts:
@@ -117,15 +117,15 @@ def main() -> int:
     print(
         f'\nserial, one process: {serial_wall:.2f} s ({len(serial)} tasks; median task '
         f'{one:.3f} s, min {min(serial_times):.3f}, max {max(serial_times):.3f}); CPU '
-        f'time per task: median {statistics.median(r["cpu_time_s"] for r in serial):.3f} s'
+        f'time per task: median {statistics.median(r.cpu_time_s for r in serial):.3f} s'
     )
     print(
         f'bare processes, {args.workers} forked (no engine): {bare_wall:.2f} s; task '
-        f'times median {statistics.median(r["wall_time_s"] for r in bare):.3f} s; '
+        f'times median {statistics.median(r.wall_time_s for r in bare):.3f} s; '
         f'throughput ratio {serial_wall / bare_wall:.2f}x (the ceiling on this machine)'
     )
     for start, (par, par_wall, par_recs) in sweeps.items():
-        par_times = [r['wall_time_s'] for r in par_recs]
+        par_times = [r.wall_time_s for r in par_recs]
         run_s = par.timings['run_s']
         idle = (run_s * args.workers - sum(par_times)) / len(par_times)
         rest = par_wall - run_s - par.timings['cluster_start_s'] - par.timings['shutdown_s']
@@ -138,7 +138,7 @@ def main() -> int:
         print(
             f'  task times in the workers: median {statistics.median(par_times):.3f} s, '
             f'sum {sum(par_times):.2f} s (serial sum {sum(serial_times):.2f} s); CPU time '
-            f'per task: median {statistics.median(r["cpu_time_s"] for r in par_recs):.3f} s'
+            f'per task: median {statistics.median(r.cpu_time_s for r in par_recs):.3f} s'
         )
         print(
             f'  throughput ratio: {serial_wall / par_wall:.2f}x end to end, '

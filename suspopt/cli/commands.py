@@ -342,9 +342,16 @@ def init(args: argparse.Namespace) -> int:
 
 
 def report(args: argparse.Namespace) -> int:
-    from suspopt.output.report import render
+    from suspopt.sweep.store import manifest_kind
 
-    written = render(args.dir)
+    if manifest_kind(args.dir) == 'sweep':  # a sweep's directory: its summary
+        from suspopt.sweep.summary import render as render_sweep
+
+        written = render_sweep(args.dir)
+    else:
+        from suspopt.output.report import render
+
+        written = render(args.dir)
     print((Path(args.dir) / 'table.md').read_text())
     print('wrote ' + ', '.join(str(p) for p in written))
     return OK

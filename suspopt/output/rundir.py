@@ -183,6 +183,85 @@ def read_record(directory: str | Path, kind: type[Record] | None = None) -> Reco
     return read_document(cls, read_json(path), str(path))
 
 
+#: the lock files this process holds (closed in a forked child: see DirectoryLock)
+_HELD_LOCKS: set[int] = set()
+
+
+def _close_inherited_locks() -> None:
+    for fd in _HELD_LOCKS:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD_LOCKS.clear()
+
+
+os.register_at_fork(after_in_child=_close_inherited_locks)
+
+
+class DirectoryLock:
+    """One suspopt command at a time per output directory, whichever command: an exclusive
+    ``flock`` on ``DIR/.suspopt.lock`` (:data:`LOCK`), taken without waiting (a second
+    command is refused at once, naming the holder written into the file). The kernel
+    releases it when its holder dies, so no lock is ever stale. A forked child (a Dask
+    worker of a sweep) closes its copy, so a lock never outlives its holder in a child;
+    the file is removed on release, and a lock taken on a file its previous holder had
+    just removed is taken again on the new file."""
+
+    def __init__(self, directory: str | Path, holder: str = 'suspopt'):
+        self.directory = Path(directory)
+        self.holder = holder
+        self._fd: int | None = None
+
+    def acquire(self) -> None:
+        import fcntl
+        import socket
+
+        path = self.directory / LOCK
+        while True:
+            try:
+                fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
+            except OSError as err:
+                raise RunError(f'--out: cannot create {path}: {err.strerror}') from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                holder = os.read(fd, 200).decode(errors='replace').strip() or 'another process'
+                os.close(fd)
+                raise ConfigError(
+                    f'--out: {self.directory} is in use by another suspopt run ({holder}; '
+                    f'lock {LOCK}); wait for it or choose another directory'
+                ) from None
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)  # removed by its previous holder after our open: take the new file
+        os.ftruncate(fd, 0)
+        os.write(fd, f'{self.holder}, pid {os.getpid()} on {socket.gethostname()}\n'.encode())
+        self._fd = fd
+        _HELD_LOCKS.add(fd)
+
+    def release(self) -> None:
+        import fcntl
+
+        if self._fd is None:
+            return
+        with contextlib.suppress(OSError):
+            (self.directory / LOCK).unlink()
+        _HELD_LOCKS.discard(self._fd)
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+        os.close(self._fd)
+        self._fd = None
+
+    def __enter__(self) -> DirectoryLock:
+        self.acquire()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
 class RunDirectory:
     """The output directory of one run (see the module docstring).
 
@@ -192,7 +271,7 @@ class RunDirectory:
     def __init__(self, path: str | Path, overwrite: bool = False):
         self.path = Path(path)
         self.overwrite = overwrite
-        self._lock_fd: int | None = None
+        self._dirlock: DirectoryLock | None = None
 
     def __enter__(self) -> RunDirectory:
         p = self.path
@@ -234,33 +313,13 @@ class RunDirectory:
         self._unlock()
 
     def _lock(self) -> None:
-        import fcntl
-
-        path = self.path / LOCK
-        try:
-            fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
-        except OSError as err:
-            raise RunError(f'--out: cannot create {path}: {err.strerror}') from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(fd)
-            raise ConfigError(
-                f'--out: {self.path} is in use by another suspopt run (lock '
-                f'{LOCK}); wait for it or choose another directory'
-            ) from None
-        os.ftruncate(fd, 0)
-        os.write(fd, f'{os.getpid()}\n'.encode())
-        self._lock_fd = fd
+        self._dirlock = DirectoryLock(self.path)
+        self._dirlock.acquire()
 
     def _unlock(self) -> None:
-        if self._lock_fd is not None:
-            os.close(self._lock_fd)
-            self._lock_fd = None
-            try:
-                (self.path / LOCK).unlink()
-            except OSError:
-                pass
+        if self._dirlock is not None:
+            self._dirlock.release()
+            self._dirlock = None
 
     def __truediv__(self, name: str) -> Path:
         return self.path / name

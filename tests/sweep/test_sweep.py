@@ -15,7 +15,10 @@ from pathlib import Path
 import pytest
 
 from suspopt.errors import ConfigError
-from suspopt.sweep.runner import DirectoryLock, distinct_optima, load_sweep, run_sweep, run_task
+from suspopt.output.rundir import DirectoryLock
+from suspopt.sweep import TaskPayload, load_sweep, noop_task, run_sweep, run_task
+from suspopt.sweep.store import read_records
+from suspopt.sweep.summary import distinct_optima
 
 DASK = str(Path(sys.executable).parent / 'dask')
 STUDY = """
@@ -57,8 +60,12 @@ def _cli(args, capsys):
     return code, out.err
 
 
-def _records(out: Path) -> dict[str, dict]:
-    return {p.parent.name: json.loads(p.read_text()) for p in (out / 'tasks').glob('*/task.json')}
+def _records(out: Path) -> dict:
+    return read_records(out)
+
+
+def _log(out: Path) -> bytes:
+    return (out / 'tasks' / 'records.jsonl').read_bytes()
 
 
 # --------------------------------------------------------------------------- local cluster
@@ -74,36 +81,38 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
     code, err = _cli(['sweep', str(path), '--out', str(out), '--scheduler', address], capsys)
     assert code == 0, err
     recs = _records(out)
-    assert len(recs) == 4 and all(r['state'] == 'done' for r in recs.values())
+    assert len(recs) == 4 and all(r.state == 'done' for r in recs.values())
     assert all((out / 'tasks' / n / 'output' / 'cases.sql').exists() for n in recs)
     assert f'connected to {address}: 2 worker(s)' in err and 'done 4, running 0' in err
-    assert {r['worker'] for r in recs.values()} == set(client.scheduler_info()['workers'])
+    assert {r.worker for r in recs.values()} == set(client.scheduler_info()['workers'])
     rows = (out / 'summary.csv').read_text().splitlines()
     assert len(rows) == 5 and rows[0].startswith('task,state,maneuver.speed,road.seed')
     assert (out / 'figures' / 'maneuver.speed.png').exists()
     assert (out / 'figures' / 'road.seed.png').exists()
-    meta = json.loads((out / 'sweep.json').read_text())
-    assert meta['counts']['done'] == 4 and len(meta['hash']) == 64
+    assert json.loads((out / 'manifest.json').read_text()) == {'kind': 'sweep', 'format': 1}
+    assert len(json.loads((out / 'sweep.json').read_text())['hash']) == 64
 
     base = load_config(tmp_path / 'study.toml').to_dict()
-    for rec in recs.values():  # the same configurations, optimized serially here
-        speed, seed = rec['task']['values']['maneuver.speed'], rec['task']['values']['road.seed']
+    for rec in recs.values():  # two of the configurations (both axes vary), serially here
+        speed, seed = rec.task['values']['maneuver.speed'], rec.task['values']['road.seed']
+        if (speed, seed) not in ((10.0, 0), (15.0, 1)):
+            continue
         data = json.loads(json.dumps(base))
         data['maneuver']['speed'], data['road']['seed'] = speed, seed
         serial = optimize(config_from_dict(data), 'low')
-        assert rec['result']['objective'] == pytest.approx(serial.objective, rel=1e-9, abs=0)
+        assert rec.result['objective'] == pytest.approx(serial.objective, rel=1e-9, abs=0)
 
     # resume: nothing reruns, no record is rewritten
-    stamps = {p: p.stat().st_mtime_ns for p in (out / 'tasks').glob('*/task.json')}
+    log = _log(out)
     outcome = run_sweep(path, out, workers=2, log=lambda m: None)
     assert outcome.exit_code == 0 and outcome.ran == 0 and outcome.counts['done'] == 4
-    assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
+    assert _log(out) == log
 
     # a changed sweep file is refused, naming what changed
     path.write_text(PRODUCT.replace('road.seed = [0, 1]', 'road.seed = [0, 2]'))
     code, err = _cli(['sweep', str(path), '--out', str(out)], capsys)
     assert code == 2 and 'road.seed: [0, 1] -> [0, 2]' in err and 'only adding tasks' in err
-    assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
+    assert _log(out) == log
 
     # a sweep file that only gains tasks is accepted; on a local cluster of one worker,
     # Ctrl-C (SIGINT to `suspopt sweep`) once one new task has finished: exit 130, the
@@ -111,12 +120,12 @@ def test_product_sweep_equals_serial_resumes_and_refuses_a_changed_file(tmp_path
     # six new tasks: after the first is done, five are still to run (a window of several
     # tasks for the interrupt to land in, even on a loaded machine)
     path.write_text(PRODUCT.replace('[10.0, 15.0]', '[10.0, 15.0, 11.0, 12.0, 13.0]'))
-    _interrupt(path, out, lambda: len(list((out / 'tasks').glob('*/task.json'))) > 4)
+    _interrupt(path, out, lambda: len(_records(out)) > 4)
     recs = _records(out)
-    assert stamps == {p: p.stat().st_mtime_ns for p in stamps}
-    assert len(recs) == 5 and all(r['state'] == 'done' for r in recs.values())
-    meta = json.loads((out / 'sweep.json').read_text())
-    assert meta['counts']['done'] == 5 and meta['counts']['pending'] == 5
+    assert _log(out).startswith(log)  # appended to, never rewritten
+    assert len(recs) == 5 and all(r.state == 'done' for r in recs.values())
+    table = (out / 'table.md').read_text()
+    assert table.startswith('Sweep sweep.toml: 10 tasks, 5 done, 0 failed, 5 pending.')
 
 
 @pytest.mark.slow
@@ -149,7 +158,7 @@ def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path, capsys
     )
     logs = ('fork', 'spawn')
     objectives = {
-        start: sorted((n, r['result']['objective']) for n, r in _records(tmp_path / start).items())
+        start: sorted((n, r.result['objective']) for n, r in _records(tmp_path / start).items())
         for start in logs
     }
     assert objectives['fork'] == objectives['spawn']
@@ -160,7 +169,7 @@ def test_forked_and_spawned_local_workers_give_the_same_results(tmp_path, capsys
 def _setup_in_forked_child(queue) -> None:
     from threadpoolctl import threadpool_info
 
-    from suspopt.sweep.runner import dask_setup
+    from suspopt.sweep import dask_setup
 
     dask_setup(None)
     queue.put(
@@ -177,11 +186,11 @@ def test_worker_setup_drops_the_clients_sigterm_and_limits_blas_threads():
     in the client) and its BLAS pools: the preload resets one, limits the other."""
     from threadpoolctl import threadpool_limits
 
-    from suspopt.sweep.runner import _sweep_sigterm
+    from suspopt.sweep.cluster import sweep_sigterm
 
     ctx = mp.get_context('fork')
     queue = ctx.Queue()
-    old = signal.signal(signal.SIGTERM, _sweep_sigterm)
+    old = signal.signal(signal.SIGTERM, sweep_sigterm)
     try:
         with threadpool_limits(limits=2):  # a client whose BLAS runs two threads
             proc = ctx.Process(target=_setup_in_forked_child, args=(queue,))
@@ -232,13 +241,20 @@ def _interrupt(path: Path, out: Path, when) -> None:
     assert 'interrupted: cancelling pending tasks' in err and 'Traceback' not in err
     assert children
     deadline = time.monotonic() + 10
-    while time.monotonic() < deadline and [p for p in children if psutil.pid_exists(p)]:
+    while time.monotonic() < deadline and [p for p in children if _alive(p)]:
         time.sleep(0.1)
-    assert not [
-        p
-        for p in children
-        if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE
-    ]
+    assert not [p for p in children if _alive(p)]
+
+
+def _alive(pid: int) -> bool:
+    """A process that runs (a zombie, dead but not yet reaped by whoever adopted it, is
+    gone)."""
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
 
 
 # --------------------------------------------------------------------------- input checks
@@ -263,7 +279,8 @@ BAD = [
         'mode = "list"\n[[tasks]]\n"road.seed" = 1\n[[tasks]]\n"road.seed" = 1\n',
         'tasks[1]: the same task as tasks[0]',
     ),
-    ('[multistart]\nn = 0\n', 'multistart.n: must be an integer >= 1'),
+    ('[multistart]\nn = 0\n', 'multistart.n: must be > 0, got 0'),
+    ('[multistart]\nn = 4\nseeds = 1\n', "multistart.seeds: unknown key (did you mean 'seed'?)"),
     ('[multistart]\nn = 4\nmethod = "grid"\n', 'multistart.method: must be one of'),
     ('command = "study"\n[multistart]\nn = 4\n', "multistart: only for command = 'optimize'"),
     ('[axes]\n', 'axes: nothing to sweep'),
@@ -279,18 +296,45 @@ def test_bad_sweep_files_exit_2_naming_the_key(tmp_path, capsys, text, message):
     assert 'Traceback' not in err and not (tmp_path / 'out').exists()
 
 
+def test_every_problem_of_a_sweep_file_at_once(tmp_path):
+    path = _files(
+        tmp_path,
+        'study = "study.toml"\ncommand = "optimise"\nretries = -1\nverify = 1\n'
+        '[axes]\n"maneuver.sped" = [1.0]\n"road.seed" = []\n',
+    )
+    with pytest.raises(ConfigError) as err:
+        load_sweep(path)
+    problems = [p.split(': ', 1)[1] for p in err.value.problems]
+    assert problems == [
+        'verify: must be true or false, got 1',
+        "command: must be one of optimize, study, got 'optimise' (did you mean 'optimize'?)",
+        'retries: must be >= 0 (reruns after a worker died), got -1',
+        "axes.maneuver.sped: not a study-file key (did you mean 'maneuver.speed'?)",
+        'axes.road.seed: empty list: an axis needs at least one value',
+    ], problems
+
+
 def test_refusals_exit_2(tmp_path, capsys):
     path = _files(tmp_path, PRODUCT)
     code, err = _cli(['sweep', str(tmp_path / 'nope.toml'), '--out', str(tmp_path / 'o')], capsys)
     assert code == 2 and 'sweep file not found' in err
     (tmp_path / 'busy').mkdir()
-    with DirectoryLock(tmp_path / 'busy'):  # a second sweep in the same directory
+    with DirectoryLock(tmp_path / 'busy'):  # another suspopt command in the same directory
         code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'busy')], capsys)
-    assert code == 2 and f'another sweep is running in this directory (pid {os.getpid()}' in err
+    assert code == 2 and f'is in use by another suspopt run (suspopt, pid {os.getpid()}' in err
+    assert err.count('\n') == 1
     (tmp_path / 'other').mkdir()
     (tmp_path / 'other' / 'x.txt').write_text('x')
     code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'other')], capsys)
     assert code == 2 and 'not a sweep directory' in err
+    (tmp_path / 'run').mkdir()
+    (tmp_path / 'run' / 'manifest.json').write_text('{"kind": "optimize", "format": 1}')
+    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'run')], capsys)
+    assert code == 2 and "holds the results of a 'optimize' run, not a sweep" in err
+    (tmp_path / 'old').mkdir()  # a sweep directory of the format before the manifest
+    (tmp_path / 'old' / 'sweep.json').write_text('{}')
+    code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'old')], capsys)
+    assert code == 2 and 'a sweep of an earlier suspopt (no manifest.json)' in err
     code, err = _cli(['sweep', str(path), '--out', str(tmp_path / 'o'), '--workers', '0'], capsys)
     assert code == 2 and '--workers: must be >= 1' in err
 
@@ -313,57 +357,79 @@ def test_multistart_spreads_starts_over_the_design_box(tmp_path):
 def test_a_failing_task_is_a_record_with_its_traceback(tmp_path):
     """run_task itself (no cluster): the worker-side build fails, the record says why."""
     bad = {'maneuver': {'speed': -1.0}}
-    rec = run_task(
-        {
-            'name': 't',
-            'command': 'optimize',
-            'fidelity': 'low',
-            'start': None,
-            'config': bad,
-            'verify': True,
-            'out_dir': str(tmp_path / 'o'),
-            'topic': None,
-        }
-    )
-    assert rec['state'] == 'failed' and rec['worker'] is None
-    assert rec['error'] == 'ConfigError: maneuver.speed: must be > 0, got -1'
-    assert 'Traceback' in rec['traceback'] and 'ConfigError' in rec['traceback']
+    rec = run_task(TaskPayload('t', 'optimize', 'low', None, bad, True, str(tmp_path / 'o')))
+    assert rec.state == 'failed' and rec.worker is None
+    assert rec.error == 'ConfigError: maneuver.speed: must be > 0, got -1'
+    assert 'Traceback' in rec.traceback and 'ConfigError' in rec.traceback
 
 
-def _dies_at_speed_13(payload: dict) -> dict:
+def test_a_storage_failure_is_not_a_task_failure():
+    """What a full or unwritable disk raises, directly or as the cause of another error,
+    is the environment's failure; anything else is the task's."""
+    import errno
+    import sqlite3
+
+    from suspopt.errors import RunError
+    from suspopt.sweep.tasks import storage_failure
+
+    def caused(err: BaseException) -> BaseException:
+        try:
+            try:
+                raise err
+            except BaseException as inner:
+                raise RuntimeError('Error calling compute()') from inner
+        except RuntimeError as outer:
+            return outer
+
+    full = OSError(errno.ENOSPC, 'No space left on device')
+    for err in (full, RunError('cannot write x: No space left on device'), caused(full)):
+        assert storage_failure(err), err
+    assert storage_failure(sqlite3.OperationalError('database or disk is full'))
+    assert storage_failure(OSError(errno.EROFS, 'Read-only file system'))
+    for err in (ValueError('x'), OSError(errno.ENOENT, 'x'), sqlite3.OperationalError('syntax')):
+        assert not storage_failure(err), err
+
+
+def _dies_at_speed_13(payload: TaskPayload):
     """A task function whose worker process dies when its task has speed 13 (a no-op
     task otherwise): a crash in native code, as the local cluster sees it."""
-    from suspopt.sweep.runner import noop_task
-
     time.sleep(0.2)
-    if payload['config']['maneuver']['speed'] == 13.0:
+    if payload.config['maneuver']['speed'] == 13.0:
         os._exit(1)
     return noop_task(payload)
 
 
-def test_a_dead_local_worker_charges_only_its_own_task(tmp_path):
+def test_a_dead_local_worker_charges_only_its_own_task_retry_failed_reruns_it(tmp_path):
     """The sweep gives each worker thread one task at a time (none waits on a worker that
     may die): a worker that dies charges its running task only, so with no retries that
     task fails as killed, after its one attempt, and every other task is done at its
-    first attempt."""
+    first attempt. A rerun keeps the failed task; ``retry_failed`` reruns it alone."""
     path = _files(
         tmp_path,
         'study = "study.toml"\nfidelity = "low"\nretries = 0\n'
-        '[axes]\n"maneuver.speed" = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]\n',
+        '[axes]\n"maneuver.speed" = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0]\n',
     )
     out = tmp_path / 'out'
     res = run_sweep(
         path, out, workers=2, log=lambda m: None, task_fn=_dies_at_speed_13, worker_start='fork'
     )
     recs = _records(out)
-    assert len(recs) == 7 and res.exit_code == 1
-    states = {r['task']['values']['maneuver.speed']: r['state'] for r in recs.values()}
+    assert len(recs) == 6 and res.exit_code == 1
+    states = {r.task['values']['maneuver.speed']: r.state for r in recs.values()}
     assert states == {v: 'done' if v != 13.0 else 'failed' for v in states}, [
-        (r['task']['values'], r['error']) for r in recs.values() if r['state'] != 'done'
+        (r.task['values'], r.error) for r in recs.values() if r.state != 'done'
     ]
-    dead = next(r for r in recs.values() if r['state'] == 'failed')
-    assert dead['error'].startswith('KilledWorker'), dead['error']
-    assert all(r['attempts'] == 1 for r in recs.values()), [r['attempts'] for r in recs.values()]
+    dead = next(r for r in recs.values() if r.state == 'failed')
+    assert dead.error.startswith('KilledWorker'), dead.error
+    assert all(r.attempts == 1 for r in recs.values()), [r.attempts for r in recs.values()]
+
+    again = run_sweep(path, out, workers=1, log=lambda m: None, task_fn=noop_task)
+    assert again.ran == 0 and again.exit_code == 1 and again.counts['failed'] == 1
+    again = run_sweep(
+        path, out, workers=1, log=lambda m: None, task_fn=noop_task, retry_failed=True
+    )
+    assert again.ran == 1 and again.exit_code == 0 and again.counts['done'] == 6
+    assert _records(out)[dead.name].state == 'done'
 
 
 # --------------------------------------------------------------------------- external cluster
@@ -457,12 +523,12 @@ def test_scheduler_path_records_a_failed_task_others_finish(tmp_path, capsys, cl
     code, err = _cli(['sweep', str(path), '--out', str(out), '--scheduler', address], capsys)
     assert code == 1, err
     assert f'connected to {address}: 2 worker(s)' in err and 'rerun up to 1 time(s)' in err
-    recs = sorted(_records(out).values(), key=lambda r: r['task']['values']['maneuver.speed'])
-    assert [r['state'] for r in recs] == ['done', 'failed']
-    assert recs[1]['error'] == 'IPOPT Maximum_Iterations_Exceeded after 1 iterations'
-    assert f'failed: {recs[1]["name"]}: IPOPT Maximum_Iterations_Exceeded' in err
+    recs = sorted(_records(out).values(), key=lambda r: r.task['values']['maneuver.speed'])
+    assert [r.state for r in recs] == ['done', 'failed']
+    assert recs[1].error == 'IPOPT Maximum_Iterations_Exceeded after 1 iterations'
+    assert f'failed: {recs[1].name}: IPOPT Maximum_Iterations_Exceeded' in err
     assert 'done 1, running 0, failed 1, total 2' in err
-    assert {r['worker'] for r in recs} <= set(cluster[1].scheduler_info()['workers'])
+    assert {r.worker for r in recs} <= set(cluster[1].scheduler_info()['workers'])
     table = (out / 'table.md').read_text()
     assert '2 tasks, 1 done, 1 failed' in table and 'Maximum_Iterations_Exceeded' in table
 
@@ -524,14 +590,14 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
     if kills == 1:  # rerun on another worker process, finished
         assert done['outcome'].exit_code == 0, err
         assert 'its worker process died; rerun on' in err and '(attempt 2)' in err
-        assert rec['state'] == 'done' and rec['attempts'] == 2 and rec['pid'] not in killed
+        assert rec.state == 'done' and rec.attempts == 2 and rec.pid not in killed
     else:  # died twice: recorded as failed with the cause
         assert done['outcome'].exit_code == 1, err
-        assert rec['state'] == 'failed' and rec['error'].startswith(
+        assert rec.state == 'failed' and rec.error.startswith(
             'KilledWorker: its worker process died on each of 2 attempts'
         )
-        assert rec['attempts'] == 2
-        assert f'failed: {rec["name"]}: KilledWorker' in err
+        assert rec.attempts == 2
+        assert f'failed: {rec.name}: KilledWorker' in err
     client.wait_for_workers(2, timeout=60)  # the nannies restarted them
 
 
@@ -539,7 +605,7 @@ def test_killed_worker_task_is_retried_then_failed(tmp_path, cluster, kills):
 def test_the_scheduler_counts_a_tasks_dead_workers(cluster):
     """A worker killed before a task could say it started still counts as an attempt:
     the record's count comes from the scheduler's own (``_deaths``)."""
-    from suspopt.sweep.runner import _deaths
+    from suspopt.sweep.cluster import deaths as _deaths
 
     address, client = cluster
     fut = client.submit(time.sleep, 4, pure=False)  # short: a running rerun holds up
@@ -557,6 +623,373 @@ def test_the_scheduler_counts_a_tasks_dead_workers(cluster):
     finally:
         client.cancel(fut, force=True)
     client.wait_for_workers(2, timeout=60)
+
+
+# --------------------------------------------------------------------------- the directory
+ROAD = 'distance,height\n0,0\n20,0\n21,0.02\n22,0\n300,0\n'
+CSV_STUDY = STUDY.replace('profile = "iso8608"\nseed = 0', 'profile = "csv"\nfile = "road.csv"')
+CSV_SWEEP = 'study = "study.toml"\nverify = false\n[axes]\n"maneuver.speed" = [10.0, 12.0]\n'
+
+
+def test_a_changed_input_file_is_refused_naming_it(tmp_path, capsys):
+    """A task is its inputs' content: the tasks read the directory's copy of the road CSV
+    (what their identity hashes); the CSV edited between two runs into the same directory
+    is refused, naming the file, nothing rerun or rewritten; restored, the sweep resumes."""
+    (tmp_path / 'road.csv').write_text(ROAD)
+    path = _files(tmp_path, CSV_SWEEP)
+    (tmp_path / 'study.toml').write_text(CSV_STUDY)
+    out = tmp_path / 'out'
+    first = run_sweep(path, out, workers=1, log=lambda m: None, task_fn=noop_task)
+    assert first.exit_code == 0 and first.ran == 2
+    sweep = load_sweep(path)
+    payload = sweep.tasks[0].payload(out, None)
+    copy = Path(payload.config['road']['file'])
+    assert copy.parent.parent == (out / 'inputs').resolve() and copy.read_text() == ROAD
+    log = _log(out)
+
+    (tmp_path / 'road.csv').write_text(ROAD.replace('0.02', '0.03'))
+    assert {t.name for t in load_sweep(path).tasks}.isdisjoint(t.name for t in sweep.tasks)
+    code, err = _cli(['sweep', str(path), '--out', str(out)], capsys)
+    assert code == 2 and f'{tmp_path / "road.csv"} changed since this sweep started here' in err
+    assert 'Restore the file, or run the sweep into a new --out' in err and err.count('\n') == 1
+    assert _log(out) == log and copy.read_text() == ROAD
+
+    (tmp_path / 'road.csv').write_text(ROAD)  # restored: the same tasks, nothing to run
+    again = run_sweep(path, out, workers=1, log=lambda m: None, task_fn=noop_task)
+    assert again.ran == 0 and again.exit_code == 0 and _log(out) == log
+
+
+def test_a_task_is_identified_by_the_content_it_reads(tmp_path):
+    """Mechanism files and the base study's description count by content: an edited
+    mechanism is another task, a moved one with the same content and name the same, an
+    edited comment of the study file changes nothing."""
+    from suspopt.multibody.mechanism import mechanism_path
+
+    mech = mechanism_path('double_wishbone').read_text()
+    (tmp_path / 'a').mkdir()
+    (tmp_path / 'a' / 'dw.toml').write_text(mech)
+    path = _files(tmp_path, 'study = "study.toml"\nfidelity = "mixed"\n[multistart]\nn = 2\n')
+    study = STUDY + '[vehicle.front]\nmechanism = "a/dw.toml"\n'
+    (tmp_path / 'study.toml').write_text(study)
+    names = [t.name for t in load_sweep(path).tasks]
+    builtin = {Path(f.path).name for t in load_sweep(path).tasks for f in t.inputs if f.builtin}
+    assert builtin == {'double_wishbone.toml'}  # the rear axle's, hashed too
+
+    (tmp_path / 'study.toml').write_text('# a comment\n' + study)
+    assert [t.name for t in load_sweep(path).tasks] == names
+    (tmp_path / 'b').mkdir()
+    (tmp_path / 'b' / 'dw.toml').write_text(mech)
+    (tmp_path / 'study.toml').write_text(study.replace('a/dw.toml', 'b/dw.toml'))
+    assert [t.name for t in load_sweep(path).tasks] == names
+    (tmp_path / 'b' / 'dw.toml').write_text(mech + '\n# edited\n')
+    assert set(t.name for t in load_sweep(path).tasks).isdisjoint(names)
+    (tmp_path / 'study.toml').write_text(study.replace('horizon = 5.0', 'horizon = 4.0'))
+    assert set(t.name for t in load_sweep(path).tasks).isdisjoint(names)
+
+
+def _wait_for_go(payload: TaskPayload):
+    """A no-op task that waits until the test creates ``go`` beside the sweep directory."""
+    go = Path(payload.out_dir).parents[3] / 'go'
+    deadline = time.monotonic() + 60
+    while not go.exists() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    return noop_task(payload)
+
+
+def test_another_command_on_a_live_sweeps_directory_is_refused(tmp_path, capsys):
+    """Every command takes the same lock: ``optimize --out D --overwrite`` against a
+    running sweep's D is refused at once (one line, exit 2), and nothing of D is deleted."""
+    import threading
+
+    path = _files(tmp_path, CSV_SWEEP)
+    out = tmp_path / 'out'
+    done: dict = {}
+    runner = threading.Thread(
+        target=lambda: done.update(
+            outcome=run_sweep(path, out, workers=1, log=lambda m: None, task_fn=_wait_for_go)
+        )
+    )
+    runner.start()
+    try:
+        deadline = time.monotonic() + 60
+        while not (out / 'sweep.json').exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        before = sorted(p.relative_to(out) for p in out.rglob('*'))
+        t = time.perf_counter()
+        code, err = _cli(
+            [
+                'optimize',
+                '--fidelity',
+                'low',
+                '--config',
+                str(tmp_path / 'study.toml'),
+                '--out',
+                str(out),
+                '--overwrite',
+                '--max-iter',
+                '1',
+            ],
+            capsys,
+        )
+        assert time.perf_counter() - t < 5
+        assert code == 2 and err.count('\n') == 1, err
+        assert (
+            f'--out: {out} is in use by another suspopt run (suspopt sweep, pid {os.getpid()}'
+            in err
+        )
+        assert set(before) <= {p.relative_to(out) for p in out.rglob('*')}
+    finally:
+        (tmp_path / 'go').touch()
+        runner.join(timeout=60)
+    assert done['outcome'].exit_code == 0 and len(_records(out)) == 2
+
+
+def test_a_full_disk_while_recording_exits_4_and_leaves_the_rest_to_rerun(tmp_path, monkeypatch):
+    """The records' writer hits a full disk (ENOSPC in the client) at the third task: the
+    sweep stops with a RunError (exit 4), the two recorded tasks stay, no cut line is
+    left; a plain rerun runs exactly the tasks not recorded."""
+    import errno
+
+    from suspopt.errors import RunError
+    from suspopt.sweep.store import RecordLog
+
+    path = _files(tmp_path, 'study = "study.toml"\nverify = false\n[multistart]\nn = 6\n')
+    out = tmp_path / 'out'
+    real, calls = RecordLog._write, []
+
+    def write(self, data: bytes) -> None:
+        calls.append(data)
+        if len(calls) > 2:
+            os.write(self.fd, data[:10])  # a part of the line reached the disk
+            raise OSError(errno.ENOSPC, 'No space left on device')
+        real(self, data)
+
+    monkeypatch.setattr(RecordLog, '_write', write)
+    lines: list[str] = []
+    with pytest.raises(RunError) as err:
+        run_sweep(path, out, workers=1, log=lines.append, task_fn=noop_task)
+    assert err.value.exit_code == 4
+    assert 'records.jsonl: No space left on device' in str(err.value), err.value
+    assert '4 task(s) not finished stay pending' in str(err.value), err.value
+    assert any(m.startswith('stopping: cannot write') for m in lines), lines
+    assert _log(out).count(b'\n') == 2 and _log(out).endswith(b'\n')
+    assert (
+        'Sweep sweep.toml: 6 tasks, 2 done, 0 failed, 4 pending.' in (out / 'table.md').read_text()
+    )
+
+    monkeypatch.setattr(RecordLog, '_write', real)
+    again = run_sweep(path, out, workers=1, log=lambda m: None, task_fn=noop_task)
+    assert again.ran == 4 and again.exit_code == 0 and len(_records(out)) == 6
+
+
+def _can_mount_tmpfs() -> bool:
+    try:
+        res = subprocess.run(
+            ['unshare', '-rm', 'sh', '-c', 'mount -t tmpfs -o size=8k tmpfs /mnt'],
+            capture_output=True,
+            timeout=10,
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return res.returncode == 0
+
+
+FULL_DISK = """
+import os, sys
+from pathlib import Path
+from suspopt.cli.main import main
+
+disk, path = Path(sys.argv[1]), sys.argv[2]
+args = ['sweep', path, '--out', str(disk / 'out'), '--workers', '1']
+records = disk / 'out' / 'tasks' / 'records.jsonl'
+first = main(args)
+lines = records.read_bytes().count(b'\\n')
+(disk / 'filler').unlink()
+second = main(args)
+print(first, lines, second, records.read_bytes().count(b'\\n'))
+print((disk / 'out' / 'table.md').read_text().splitlines()[0])
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _can_mount_tmpfs(), reason='needs user and mount namespaces (unshare -rm)')
+def test_a_full_disk_under_a_task_exits_4_and_a_rerun_runs_it(tmp_path):
+    """A real full disk: a 2 MiB tmpfs (in a user and mount namespace of its own) filled
+    up to 32 KiB, room for the sweep's own files, not for a task's recorder file. A real
+    optimization fails to write its output: exit 4, nothing recorded (before, it was
+    recorded as failed, exit 1, and a rerun skipped it); space freed, the same command
+    runs it (both in one process: ``suspopt.cli.main.main``)."""
+    (tmp_path / 'study.toml').write_text(STUDY)
+    path = _files(tmp_path, 'study = "study.toml"\nverify = false\n[axes]\n"road.seed" = [3]\n')
+    (tmp_path / 'driver.py').write_text(FULL_DISK)
+    disk = tmp_path / 'disk'
+    disk.mkdir()
+    script = f"""
+        mount -t tmpfs -o size=2048k tmpfs {disk} || exit 99
+        head -c {2048 * 1024 - 32 * 1024} /dev/zero > {disk}/filler
+        {sys.executable} {tmp_path / 'driver.py'} {disk} {path}
+    """
+    res = subprocess.run(
+        ['unshare', '-rm', 'sh', '-c', script], capture_output=True, text=True, timeout=300
+    )
+    assert res.returncode == 0, res.stdout + res.stderr
+    codes, table = res.stdout.splitlines()[-2:]
+    assert codes == '4 0 0 1', res.stdout + res.stderr  # exit 4, 0 records; exit 0, 1 record
+    assert 'database or disk is full' in res.stderr, res.stderr
+    assert 'suspopt: error: ' in res.stderr and '1 task(s) not finished stay pending' in res.stderr
+    assert table == 'Sweep sweep.toml: 1 tasks, 1 done, 0 failed, 0 pending.'
+
+
+def _wchar() -> int:
+    """Bytes this process has passed to write() and its kind (files, pipes), ever."""
+    for line in Path('/proc/self/io').read_text().splitlines():
+        if line.startswith('wchar:'):
+            return int(line.split()[1])
+    raise AssertionError('no wchar in /proc/self/io')
+
+
+@pytest.mark.skipif(not Path('/proc/self/io').exists(), reason='needs /proc/self/io')
+def test_bookkeeping_per_finished_task_does_not_grow_with_the_sweep(tmp_path):
+    """No-op tasks through the real engine and bookkeeping, 10 and 100 of them: every
+    byte the sweep's process writes (records, sweep.json, summary, figures) per task does
+    not grow with the number of tasks (a summary rewritten per task: ten times more),
+    and the records cost the same per task. ``render`` (what ``suspopt report DIR`` calls
+    for a sweep's directory) writes the same summary again from the records alone."""
+    from suspopt.sweep.store import manifest_kind
+    from suspopt.sweep.summary import render
+
+    written, appended = {}, {}
+    for n in (10, 100):
+        path = _files(tmp_path, f'study = "study.toml"\nverify = false\n[multistart]\nn = {n}\n')
+        load_sweep(path)  # its imports and validation: not bookkeeping
+        w0 = _wchar()
+        outcome = run_sweep(
+            path, tmp_path / f'o{n}', workers=2, log=lambda m: None, task_fn=noop_task
+        )
+        written[n] = (_wchar() - w0) / n
+        appended[n] = outcome.record_bytes / n
+        assert outcome.exit_code == 0 and outcome.ran == n
+    assert written[100] < written[10], written
+    assert appended[100] == pytest.approx(appended[10], rel=0.05), appended
+    assert written[100] < 4096, written  # a record, a row, a task's description
+
+    out = tmp_path / 'o10'
+    assert manifest_kind(out) == 'sweep'
+    table, csv = (out / 'table.md').read_text(), (out / 'summary.csv').read_text()
+    for name in ('table.md', 'summary.csv'):
+        (out / name).unlink()
+    assert {p.name for p in render(out)} == {'table.md', 'summary.csv', 'start.png'}
+    assert (out / 'table.md').read_text() == table and (out / 'summary.csv').read_text() == csv
+    with pytest.raises(ConfigError, match='no manifest.json'):
+        render(tmp_path)
+
+
+def test_records_are_appended_a_cut_line_is_no_record(tmp_path):
+    """The records file: a task's last line is its record; a last line cut short (a
+    writer killed mid-line) is no record and is dropped before the next append; a damaged
+    line elsewhere is said and skipped."""
+    from suspopt.sweep.store import RecordLog
+    from suspopt.sweep.tasks import TaskRecord
+
+    log = RecordLog(tmp_path)
+    for rec in (
+        TaskRecord('a', 'failed', error='x'),
+        TaskRecord('b', 'done'),
+        TaskRecord('a', 'done'),
+    ):
+        log.append(rec)
+    log.close()
+    path = tmp_path / 'tasks' / 'records.jsonl'
+    whole = path.read_bytes()
+    assert {n: r.state for n, r in read_records(tmp_path).items()} == {'a': 'done', 'b': 'done'}
+    path.write_bytes(whole + b'{"name": "c", "sta')
+    assert set(read_records(tmp_path)) == {'a', 'b'}
+    log = RecordLog(tmp_path)
+    log.append(TaskRecord('c', 'done'))
+    log.close()
+    assert path.read_bytes().startswith(whole) and set(read_records(tmp_path)) == {'a', 'b', 'c'}
+    path.write_bytes(whole.replace(b'"name":"b"', b'"name":"b', 1))
+    said: list[str] = []
+    assert set(read_records(tmp_path, said.append)) == {'a'}
+    assert said == [f'{path}: line 2 unreadable, ignored (its task reruns)']
+
+
+def test_a_forked_worker_does_not_log_into_a_stream_held_at_the_fork(tmp_path):
+    """A log handler of this process (the root logger's, as pytest's or an application's),
+    whose stream a thread holds (its write waits on a full pipe) while the local cluster
+    forks its worker: the worker inherits the stream's lock held. Were Dask's records to
+    reach the handler in the worker (Dask logs its preload at start), the worker would
+    wait for that lock forever and the sweep would never start. (The handler takes the
+    workers' records only: this process's own would wait here too.)"""
+    import logging
+    import threading
+
+    read_end, write_end = os.pipe()
+    stream = open(write_end, 'w')  # a TextIOWrapper on a BufferedWriter, as stderr
+    handler = logging.StreamHandler(stream)
+    me = os.getpid()
+    handler.addFilter(lambda record: os.getpid() != me)
+    root = logging.getLogger()
+    old_level = root.level
+    root.addHandler(handler)
+    root.setLevel(logging.INFO)
+    writer = threading.Thread(target=lambda: (stream.write('x' * (1 << 20)), stream.flush()))
+    try:
+        writer.start()  # fills the pipe, then waits inside write() holding the stream
+        time.sleep(0.2)
+        path = _files(tmp_path, 'study = "study.toml"\nverify = false\n[multistart]\nn = 2\n')
+        done: dict = {}
+        sweep = threading.Thread(
+            target=lambda: done.update(
+                outcome=run_sweep(
+                    path, tmp_path / 'out', workers=1, log=lambda m: None, task_fn=noop_task
+                )
+            ),
+            daemon=True,
+        )
+        sweep.start()
+        sweep.join(timeout=60)
+        assert not sweep.is_alive(), 'the forked worker waits for a lock held at the fork'
+        assert done['outcome'].exit_code == 0
+    finally:
+        root.removeHandler(handler)
+        root.setLevel(old_level)
+        while writer.is_alive():
+            os.read(read_end, 1 << 20)
+            writer.join(timeout=0.1)
+        stream.close()
+        os.close(read_end)
+
+
+def test_a_killed_commands_lock_is_not_held_by_its_forked_children(tmp_path):
+    """The lock is the process's, not its children's: a process that takes it, forks
+    (as a sweep forks its Dask workers) and is killed leaves the directory free at once,
+    while its child lives on."""
+    script = f"""
+import os, signal, time
+from suspopt.output.rundir import DirectoryLock
+lock = DirectoryLock({str(tmp_path)!r}, 'suspopt sweep')
+lock.acquire()
+child = os.fork()
+if child == 0:
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.dup2(null, 2)
+    time.sleep(30)
+    os._exit(0)
+print('locked', child, flush=True)
+os.kill(os.getpid(), signal.SIGKILL)
+"""
+    proc = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True)
+    word, child = proc.stdout.split()
+    try:
+        assert word == 'locked' and proc.returncode == -signal.SIGKILL, proc.stderr
+        state = Path(f'/proc/{child}/stat').read_text().rsplit(')', 1)[1].split()[0]
+        assert state in 'SR'  # the child lives on (sleeping or running)
+        with DirectoryLock(tmp_path):
+            pass
+    finally:
+        os.kill(int(child), signal.SIGKILL)
 
 
 # --------------------------------------------------------------------------- coloring cache
