@@ -9,8 +9,8 @@ of the metrics table (:mod:`suspopt.models.metrics`) that have a finite stationa
 variance on a random road:
 
 * ``heave``, ``pitch``, ``roll``: the chassis accelerations;
-* ``travel_<c>``: the suspension travel (the wheel relative to the body above it);
 * ``tyre_load_<c>``: the dynamic tyre load;
+* ``travel_<c>``: the suspension travel (the wheel relative to the body above it);
 * ``comfort_<seat>``: the Wk-weighted vertical acceleration at a seat.
 
 The absolute wheel displacement ``wheel_<c>`` (the paper's road-holding terms) follows the
@@ -39,8 +39,8 @@ STATIONARY_SIGNALS = {
     'heave': 'zdd_C',
     'pitch': 'thdd_C',
     'roll': 'phidd_C',
-    'travel': 'travel',
     'tyre_load': 'F_T',
+    'travel': 'travel',
     'comfort': 'a_w',
 }
 #: metric kinds whose variance on a random road is infinite (they follow the road height)
@@ -78,7 +78,7 @@ def stationary_signals(assembly: VehicleAssembly) -> tuple[str, ...]:
     """The assembly's signals of the stationary metrics, in the metrics table's order."""
     lay = assembly.spec.layout
     chassis = {'heave': 'zdd_C', 'pitch': 'thdd_C', 'roll': 'phidd_C'}
-    out = [chassis[d] for d in lay.dofs] + ['travel', 'F_T']
+    out = [chassis[d] for d in lay.dofs] + ['F_T', 'travel']
     if assembly.spec.seats:
         out.append('a_w')
     return tuple(out)
