@@ -133,6 +133,9 @@ def optimize_spectral(args: argparse.Namespace) -> int:
     print(spectral_markdown(res))
     if args.out is not None:
         print(f'results: {args.out}/spectral.json, table.md ({res.wall_time_s:.2f} s)')
+    if res.success:
+        found = ','.join(f'{n}={v:.6g}' for n, v in res.design.items())
+        print(f'the time-domain steps can start from it: --start {found}')
     for w in res.warnings:
         _error(f'warning: {w}')
     if not res.success:

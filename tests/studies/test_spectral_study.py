@@ -287,13 +287,14 @@ def test_the_commands(tmp_path, capsys):
     assert main(['report', str(out)]) == 0 and (out / 'table.md').read_text() == table
     capsys.readouterr()
 
-    design = ','.join(f'{k}={v}' for k, v in rec.design.items())
+    (hint,) = [line for line in printed.splitlines() if '--start' in line]
+    design = hint.split('--start ')[1]  # the time-domain steps' start, as printed
     ev = ['evaluate', '--fidelity', 'low', '--method', 'spectral', '--config', str(toml)]
     assert main([*ev, '--design', design]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data['kind'] == 'spectral' and data['mode'] == 'evaluate'
-    assert data['objective'] == pytest.approx(rec.objective, rel=1e-9)
-    assert data['rms'] == pytest.approx(rec.rms, rel=1e-9)
+    assert data['objective'] == pytest.approx(rec.objective, rel=1e-5)
+    assert data['rms'] == pytest.approx(rec.rms, rel=1e-5)
 
     assert main([*ev, '--fidelity', 'mixed']) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
