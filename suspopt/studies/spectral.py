@@ -188,7 +188,7 @@ def spectral_scales(
 
             given = PAPER_SCALES if norm == 'paper' else config.objective.scales
             T = case.scenario.horizon
-            out.append({t: float(given.get(t, T)) / T for t in outputs})
+            out.append({t: float(given.get(t, 1.0)) / T for t in outputs})
     return out
 
 
