@@ -119,10 +119,7 @@ def spectral_cases(config: StudyConfig) -> tuple[SpectralCase, ...]:
     weights = config.objective.weights
     out = []
     for i, (sc, road) in enumerate(zip(scenarios, roads)):
-        infinite = [
-            line.split(':', 1)[0].removeprefix('outputs.')
-            for line in StationaryModel(full, road, pade_order=2).infinite_outputs(p0)
-        ]
+        infinite = StationaryModel(full, road, pade_order=2).infinite_output_names(p0)
         weighted = [t for t in infinite if weights.get(t, 0.0) > 0.0]
         if weighted:
             coherence = f'{_road_key(config, i)}.coherence'
@@ -134,7 +131,7 @@ def spectral_cases(config: StudyConfig) -> tuple[SpectralCase, ...]:
             )
         kept = tuple(t for t in full.outputs if t not in infinite)
         system = full.select_outputs(kept) if infinite else full
-        out.append(SpectralCase(sc, system, road, loads, tuple(infinite)))
+        out.append(SpectralCase(sc, system, road, loads, infinite))
     return tuple(out)
 
 
