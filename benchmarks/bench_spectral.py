@@ -13,7 +13,7 @@ size and the objective reached; and the time of one variance evaluation and of o
 gradient at the start. Median (min-max) over the repeats.
 
 Per study (``suspopt.studies.spectral.optimize_spectral_study``, what the command runs,
-objective on comfort and tyre load, travel and tyre-contact constraints as 3σ RMS
+objective on comfort and tyre load, travel and no-lift-off constraints as 3σ RMS
 limits): the time to build the stationary system from the study (the assembly's
 matrices, the Padé order and the reference scales at the initial design) and the
 solve (``optimize_spectral``: Padé order, IPOPT, the check at the optimum).
@@ -52,7 +52,7 @@ STUDIES = ('quarter_car', 'half_car', 'full_car')
 
 def study(model: str):
     """The default car of ``model`` with a seat, comfort and tyre load weighted, the
-    travel and tyre contact constrained."""
+    travel and the tyre contact (no lift-off, ``margin = 0``) constrained."""
     return config_from_dict(
         {
             'vehicle': {'model': model},
@@ -60,9 +60,16 @@ def study(model: str):
             'road': {'profile': 'iso8608', 'road_class': 'C'},
             'maneuver': {'speed': 20.0},
             'objective': {'weights': {'comfort': 0.5, 'tyre_load': 0.5}},
-            'constraints': {'travel': {'bump': 0.08, 'rebound': 0.1}, 'tyre_contact': {}},
+            'constraints': {
+                'travel': {'bump': 0.08, 'rebound': 0.1},
+                'tyre_contact': {'margin': 0.0},
+            },
         }
     )
+
+
+def fmt(value: float | None) -> str:
+    return '—' if value is None else f'{value:.4f}'
 
 
 def measure_study(model: str, repeat: int) -> dict:
@@ -191,7 +198,7 @@ def main() -> None:
         data[f'study_{model}'] = r
         study_rows.append(
             f'| {model} | {stats(r["build"])} | {stats(r["solve"])} | {r["iterations"]} | '
-            f'{r["evaluations"]} | {r["pade_order"]} | {r["objective"]:.4f} | '
+            f'{r["evaluations"]} | {r["pade_order"]} | {fmt(r["objective"])} | '
             f'{", ".join(r["active"]) or "none"} | {"yes" if r["success"] else r["status"]} |'
         )
         print(study_rows[-1], flush=True)
@@ -214,7 +221,7 @@ def main() -> None:
     md = [
         "`suspopt optimize --method spectral` on suspopt's own vehicles (each model's "
         "default car with a seat's Wk filter, class C at 20 m/s, f on comfort and tyre load, "
-        '3σ travel and tyre-contact limits): building the stationary system from the study '
+        '3σ travel and no-lift-off limits): building the stationary system from the study '
         '[s] and the solve [s], median (min–max) over '
         f'{args.repeat} repeats.',
         '',
