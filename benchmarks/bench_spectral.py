@@ -1,13 +1,22 @@
 """Benchmark: ``optimize_spectral`` (stationary RMS on an ISO 8608 road, IPOPT in reduced
-space) on the hand-written quarter, half and full cars of ``tests/spectral``.
+space) on the hand-written quarter, half and full cars of ``tests/spectral``, and
+``suspopt optimize --method spectral`` on suspopt's own vehicles (the study's quarter,
+half and full car with a seat's Wk filter).
 
     python benchmarks/bench_spectral.py [--repeat 5] [--cases quarter half full]
+        [--studies quarter_car half_car full_car]
 
 Per case and Hessian (``exact``: complex step of the adjoint gradient; ``limited-memory``:
 IPOPT's L-BFGS): the wall time of one ``optimize_spectral`` call (the Padé order chosen by
 self-convergence included), IPOPT iterations, response evaluations, the augmented state
 size and the objective reached; and the time of one variance evaluation and of one
 gradient at the start. Median (min-max) over the repeats.
+
+Per study (``suspopt.studies.spectral.optimize_spectral_study``, what the command runs,
+objective on comfort and tyre load, travel and no-lift-off constraints as 3σ RMS
+limits): the time to build the stationary system from the study (the assembly's
+matrices, the Padé order and the reference scales at the initial design) and the
+solve (``optimize_spectral``: Padé order, IPOPT, the check at the optimum).
 """
 
 from __future__ import annotations
@@ -32,8 +41,59 @@ from spectral_vehicles import (  # noqa: E402
 )
 from threadpoolctl import threadpool_limits  # noqa: E402
 
+from suspopt.spec.load import config_from_dict  # noqa: E402
 from suspopt.spectral import RandomRoad, StationaryModel  # noqa: E402
 from suspopt.spectral.optimize import optimize_spectral  # noqa: E402
+from suspopt.studies.spectral import optimize_spectral_study  # noqa: E402
+
+#: the studies timed: each model's default car on a class C road at 20 m/s
+STUDIES = ('quarter_car', 'half_car', 'full_car')
+
+
+def study(model: str):
+    """The default car of ``model`` with a seat, comfort and tyre load weighted, the
+    travel and the tyre contact (no lift-off, ``margin = 0``) constrained."""
+    return config_from_dict(
+        {
+            'vehicle': {'model': model},
+            'comfort': {'seats': [{'name': 'driver'}]},
+            'road': {'profile': 'iso8608', 'road_class': 'C'},
+            'maneuver': {'speed': 20.0},
+            'objective': {'weights': {'comfort': 0.5, 'tyre_load': 0.5}},
+            'constraints': {
+                'travel': {'bump': 0.08, 'rebound': 0.1},
+                'tyre_contact': {'margin': 0.0},
+            },
+        }
+    )
+
+
+def fmt(value: float | None) -> str:
+    return '—' if value is None else f'{value:.4f}'
+
+
+def measure_study(model: str, repeat: int) -> dict:
+    """``optimize_spectral_study`` of one study: build and solve times."""
+    cfg = study(model)
+    optimize_spectral_study(cfg)  # warm (imports, the first assembly)
+    build, solve, rec = [], [], None
+    for _ in range(repeat):
+        rec = optimize_spectral_study(cfg)
+        solve.append(rec.solve_time_s)
+        build.append(rec.wall_time_s - rec.solve_time_s)
+    assert rec is not None
+    return {
+        'build': build,
+        'solve': solve,
+        'iterations': rec.iterations,
+        'evaluations': rec.evaluations,
+        'pade_order': rec.scenarios[0].pade_order,
+        'objective': rec.objective,
+        'success': rec.success,
+        'status': rec.status,
+        'design': rec.design,
+        'active': [lim.term for lim in rec.limits if lim.active],
+    }
 
 
 def cases() -> dict[str, dict]:
@@ -128,9 +188,20 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--repeat', type=int, default=5)
     ap.add_argument('--cases', nargs='+', default=['quarter', 'half', 'full'])
+    ap.add_argument('--studies', nargs='+', default=list(STUDIES), choices=STUDIES)
     args = ap.parse_args()
     all_cases = cases()
     rows, data = [], {}
+    study_rows = []
+    for model in args.studies:
+        r = measure_study(model, args.repeat)
+        data[f'study_{model}'] = r
+        study_rows.append(
+            f'| {model} | {stats(r["build"])} | {stats(r["solve"])} | {r["iterations"]} | '
+            f'{r["evaluations"]} | {r["pade_order"]} | {fmt(r["objective"])} | '
+            f'{", ".join(r["active"]) or "none"} | {"yes" if r["success"] else r["status"]} |'
+        )
+        print(study_rows[-1], flush=True)
     for name in args.cases:
         case = all_cases[name]
         optimize_spectral(case['system'], case['road'], case['start'], **case['kwargs'])  # warm
@@ -148,6 +219,17 @@ def main() -> None:
             )
             print(rows[-1], flush=True)
     md = [
+        "`suspopt optimize --method spectral` on suspopt's own vehicles (each model's "
+        "default car with a seat's Wk filter, class C at 20 m/s, f on comfort and tyre load, "
+        '3σ travel and no-lift-off limits): building the stationary system from the study '
+        '[s] and the solve [s], median (min–max) over '
+        f'{args.repeat} repeats.',
+        '',
+        '| study | build [s] | solve [s] | iterations | evaluations | Padé order | f '
+        '| active limits | converged |',
+        '|---|---|---|---|---|---|---|---|---|',
+        *study_rows,
+        '',
         'Wall time of one `optimize_spectral` call [s] (Padé order chosen by self-convergence '
         'to 1e-4 included), median (min–max) over '
         f'{args.repeat} repeats; iterations of IPOPT, evaluations of the response.',

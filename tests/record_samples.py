@@ -26,6 +26,7 @@ from suspopt.records.solve import (
     SolveRecord,
     SolveTimes,
 )
+from suspopt.records.spectral import RmsLimit, SpectralRecord, SpectralRoad, SpectralScenario
 from suspopt.records.twostep import TwoStepStudy
 from suspopt.records.verification import Comparison, ScenarioComparison, Verification
 from suspopt.spec.schema import StudyConfig
@@ -239,6 +240,44 @@ def coupling() -> CouplingStudy:
     )
 
 
+def spectral() -> SpectralRecord:
+    rms = {'heave': 0.7, 'travel_1': 0.012, 'tyre_load_1': 1050.0}
+    road = SpectralRoad('C', 2.56e-4, 20.0, 'identical', 0.0, 1.01e-3)
+    scenario = SpectralScenario(
+        name='main',
+        weight=1.0,
+        road=road,
+        pade_order=6,
+        pade_error=3e-5,
+        scales={'heave': 0.5, 'travel_1': 1.4e-4, 'tyre_load_1': 1.1e6},
+        rms=rms,
+        objective=0.93,
+        rms_start=dict(rms),
+        objective_start=1.0,
+        not_stationary=('wheel_1',),
+    )
+    return SpectralRecord(
+        mode='optimize',
+        start=dict(DESIGN),
+        design=dict(DESIGN),
+        success=True,
+        status='Solve_Succeeded',
+        objective=0.93,
+        objective_start=1.0,
+        scenarios=(scenario,),
+        weights={'heave': 0.5, 'tyre_load_1': 0.5},
+        normalization='reference',
+        limits=(RmsLimit('travel_1', 'constraints.travel.bump', 0.06, 3.0, 0.02, 0.012, 0.0),),
+        iterations=8,
+        evaluations=12,
+        hessian='exact',
+        solve_time_s=0.04,
+        wall_time_s=0.08,
+        warnings=('constraints.roll_gradient: not applied',),
+        config=CONFIG,
+    )
+
+
 #: one sample of every document kind
 DOCUMENT_SAMPLES = {
     'solve': solve,
@@ -247,4 +286,5 @@ DOCUMENT_SAMPLES = {
     'robust': robust,
     'compare': compare,
     'coupling': coupling,
+    'spectral': spectral,
 }

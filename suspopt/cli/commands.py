@@ -105,7 +105,48 @@ def _not_converged(res: SolveRecord) -> str:
     return msg
 
 
+def _spectral_fidelity(args: argparse.Namespace) -> None:
+    if args.fidelity != 'low':
+        raise ConfigError(
+            f'--fidelity: the spectral method takes the low-fidelity vehicle (linear), got '
+            f'{args.fidelity!r}; use --fidelity low'
+        )
+
+
+def optimize_spectral(args: argparse.Namespace) -> int:
+    """``optimize --method spectral``: the stationary optimum (docs/spectral.md)."""
+    _spectral_fidelity(args)
+    config = study_config(args)
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.output.spectral_report import spectral_markdown
+    from suspopt.studies.spectral import optimize_spectral_study
+
+    start = start_design(args, config)
+    if args.out is None:
+        res = optimize_spectral_study(config, start=start)
+    else:
+        with RunDirectory(args.out, args.overwrite) as out:
+            Printer(args.quiet, config.design_names()).log(
+                f'stationary optimum of the low-fidelity model; results in {out.path}'
+            )
+            res = optimize_spectral_study(config, start=start, out_dir=out)
+    print(spectral_markdown(res))
+    if args.out is not None:
+        print(f'results: {args.out}/spectral.json, table.md ({res.wall_time_s:.2f} s)')
+    if res.success:
+        found = ','.join(f'{n}={v:.6g}' for n, v in res.design.items())
+        print(f'the time-domain steps can start from it: --start {found}')
+    for w in res.warnings:
+        _error(f'warning: {w}')
+    if not res.success:
+        _error(f'IPOPT did not converge ({res.status}) after {res.iterations} iterations')
+        return FAILED
+    return OK
+
+
 def optimize(args: argparse.Namespace) -> int:
+    if args.method == 'spectral':
+        return optimize_spectral(args)
     config = study_config(args)
     import suspopt.studies.run as run
     from suspopt.output.rundir import RunDirectory
@@ -131,6 +172,13 @@ def evaluate(args: argparse.Namespace) -> int:
     import suspopt.studies.run as run
 
     design = parse_design(args.design, '--design', config) if args.design else None
+    if args.method == 'spectral':
+        _spectral_fidelity(args)
+        from suspopt.studies.spectral import evaluate_spectral
+
+        spectral = evaluate_spectral(config, design)
+        print(json.dumps(spectral.to_json(), indent=2, default=float))
+        return OK
     res = run.evaluate(config, args.fidelity, design, method=args.method, verify=not args.no_verify)
     data = res.to_json()
     data.pop('history', None)

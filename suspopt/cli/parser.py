@@ -102,6 +102,13 @@ def _optimize(sub: Any) -> None:
     p.add_argument('--fidelity', choices=('low', 'mixed'), required=True)
     _common(p)
     p.add_argument('--start', metavar='DESIGN', help='starting design (default: config)')
+    p.add_argument(
+        '--method',
+        choices=('collocation', 'spectral'),
+        default='collocation',
+        help="collocation (default) or spectral: the stationary optimum on the study's "
+        'ISO 8608 road (low fidelity; docs/spectral.md)',
+    )
     _run_options(p, None)
     p.set_defaults(func=commands.optimize)
 
@@ -111,7 +118,13 @@ def _evaluate(sub: Any) -> None:
     p.add_argument('--fidelity', choices=('low', 'mixed'), required=True)
     _common(p)
     p.add_argument('--design', metavar='DESIGN', help='design (default: config initial)')
-    p.add_argument('--method', choices=('collocation', 'time-marching'), default='collocation')
+    p.add_argument(
+        '--method',
+        choices=('collocation', 'time-marching', 'spectral'),
+        default='collocation',
+        help='collocation (default), time-marching, or spectral: the stationary RMS on the '
+        "study's ISO 8608 road (low fidelity; docs/spectral.md)",
+    )
     p.set_defaults(func=commands.evaluate)
 
 

@@ -24,6 +24,7 @@ from suspopt.records.coupling import CouplingStudy
 from suspopt.records.pareto import ParetoFront
 from suspopt.records.robust import RobustStudy
 from suspopt.records.solve import SolveRecord
+from suspopt.records.spectral import SpectralRecord
 from suspopt.records.twostep import TwoStepStudy
 
 
@@ -59,4 +60,8 @@ def render(out_dir: str | Path) -> list[Path]:
             from suspopt.output.compare_report import render_compare
 
             return render_compare(out, record, file)
+        case SpectralRecord():
+            from suspopt.output.spectral_report import render_spectral
+
+            return render_spectral(out, record)
     raise AssertionError(f'no renderer of a {manifest.kind} run')  # a bug: DOCUMENTS grew

@@ -15,6 +15,7 @@ from suspopt.records.coupling import CouplingStudy
 from suspopt.records.pareto import ParetoFront
 from suspopt.records.robust import RobustStudy
 from suspopt.records.solve import SolveRecord
+from suspopt.records.spectral import SpectralRecord
 from suspopt.records.twostep import TwoStepStudy
 
 MANIFEST = 'manifest.json'
@@ -27,6 +28,7 @@ DOCUMENTS: dict[str, tuple[type[Record], str]] = {
     'robust': (RobustStudy, 'robust.json'),
     'compare': (CompareStudy, 'compare.json'),
     'coupling': (CouplingStudy, 'coupling.json'),
+    'spectral': (SpectralRecord, 'spectral.json'),
 }
 
 

@@ -280,13 +280,27 @@ class StationaryModel:
         A, B, C, D = self.system.matrices(np.asarray(p, dtype=float))
         return self._infinite(C, D, np.linalg.solve(A, B))
 
-    def _infinite(self, C: np.ndarray, D: np.ndarray, X: np.ndarray) -> list[str]:
-        """:meth:`infinite_outputs` with ``X = A⁻¹ B``."""
+    def infinite_output_names(self, p: ArrayLike) -> tuple[str, ...]:
+        """The outputs whose variance is infinite at ``p`` (:meth:`infinite_outputs`)."""
+        A, B, C, D = self.system.matrices(np.asarray(p, dtype=float))
+        bad, _ = self._static_gain_nonzero(C, D, np.linalg.solve(A, B))
+        rows = np.flatnonzero(bad.any(axis=1))
+        return tuple(self.system.outputs[i] for i in rows)
+
+    def _static_gain_nonzero(
+        self, C: np.ndarray, D: np.ndarray, X: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Which static gains to the references are not zero (n_y, references), and the
+        gains, with ``X = A⁻¹ B``."""
         gain = (D - C @ X) @ self.road_model.E
         # what rounding leaves of a gain that is zero in exact arithmetic: relative to
         # the output's D and to its C times the largest static response
         scale = np.abs(D).max(axis=1) + np.abs(C).sum(axis=1) * np.abs(X).max()
-        bad = np.abs(gain) > STATIC_GAIN_RTOL * scale[:, None] + 1e-300
+        return np.abs(gain) > STATIC_GAIN_RTOL * scale[:, None] + 1e-300, gain
+
+    def _infinite(self, C: np.ndarray, D: np.ndarray, X: np.ndarray) -> list[str]:
+        """:meth:`infinite_outputs` with ``X = A⁻¹ B``."""
+        bad, gain = self._static_gain_nonzero(C, D, X)
         out = []
         for i, name in enumerate(self.system.outputs):
             if bad[i].any():

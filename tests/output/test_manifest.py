@@ -21,6 +21,7 @@ RENDERERS = {
     'robust': ('suspopt.output.robust_report', 'render_robust'),
     'compare': ('suspopt.output.compare_report', 'render_compare'),
     'coupling': ('suspopt.output.coupling_report', 'render_coupling'),
+    'spectral': ('suspopt.output.spectral_report', 'render_spectral'),
 }
 
 

@@ -140,6 +140,9 @@ def _damage(data: dict, path: tuple, value: object) -> dict:
         ('compare', ('recorders', 'mixed:dw'), KeyError, 'recorders.mixed:dw: missing'),
         ('compare', ('kinematics', 'curves', 'dw', 'camber', 0), 'x', 'curves.dw.camber[0]:'),
         ('coupling', ('evaluations', 'wall'), {}, 'evaluations.wall: not a model'),
+        ('spectral', ('scenarios', 0, 'road', 'speed'), 'fast', 'road.speed: expected a number'),
+        ('spectral', ('mode',), 'both', "mode: expected 'evaluate' or 'optimize', got 'both'"),
+        ('spectral', ('objective',), None, 'objective: missing for a converged result'),
     ],
 )
 def test_a_damaged_value_names_the_file_and_the_key(tmp_path, capsys, kind, path, value, message):

@@ -13,10 +13,13 @@ from suspopt.spectral import RandomRoad, StationaryModel
 from suspopt.spectral.integral import spectral_variances
 
 
-def closed_forms(k: float, c: float, q: float) -> np.ndarray:
+def closed_forms(
+    k: float, c: float, q: float, ms: float = MS, mu: float = MU, kt: float = KT
+) -> np.ndarray:
     """Variances of sprung acceleration, suspension travel and dynamic tyre load of the
-    quarter car (sprung m_s, unsprung m_u, spring k, damper c, tyre k_t) for a white
-    road velocity of intensity q (E[u(t)u(t+τ)] = q δ(τ)).
+    quarter car (sprung ``ms``, unsprung ``mu``, spring ``k``, damper ``c``, tyre ``kt``;
+    default: the hand-written car's) for a white road velocity of intensity q
+    (E[u(t)u(t+τ)] = q δ(τ)).
 
     Derived by the table of integrals (Newland, *An Introduction to Random Vibrations,
     Spectral and Wavelet Analysis*, 3rd ed., Appendix 1, n = 4) from the transfer
@@ -25,17 +28,17 @@ def closed_forms(k: float, c: float, q: float) -> np.ndarray:
     -k_t m_s s/Δ, tyre load k_t (m_s m_u s³ + c(m_s+m_u) s² + k(m_s+m_u) s)/Δ
     (docs/spectral.md shows the steps). The same three expressions are the closed forms
     of Gobbi & Mastinu, J. Sound Vib. 245(3), 2001."""
-    m = MS + MU
-    acc = q / 2.0 * (KT * c / MS**2 + k**2 * m / (c * MS**2))
+    m = ms + mu
+    acc = q / 2.0 * (kt * c / ms**2 + k**2 * m / (c * ms**2))
     travel = q / 2.0 * m / c
     tyre = (
         q
         / 2.0
         * (
-            KT * c * m**2 / MS**2
-            + k**2 * m**3 / (c * MS**2)
-            - 2.0 * k * KT * MU * m / (c * MS)
-            + KT**2 * MU / c
+            kt * c * m**2 / ms**2
+            + k**2 * m**3 / (c * ms**2)
+            - 2.0 * k * kt * mu * m / (c * ms)
+            + kt**2 * mu / c
         )
     )
     return np.array([acc, travel, tyre])
