@@ -26,6 +26,7 @@ import sys
 from types import FrameType
 
 from suspopt.cli.exits import INTERRUPTED, exit_code
+from suspopt.cli.inputs import check_arguments
 from suspopt.cli.parser import build_parser
 from suspopt.errors import ConfigError, SuspoptError
 
@@ -36,7 +37,13 @@ def _sigterm_as_interrupt(signum: int, frame: FrameType | None) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default: ``sys.argv``); its exit code."""
-    args = build_parser().parse_args(argv)
+    _printable_output()
+    try:
+        args = check_arguments(build_parser().parse_args(argv))
+    except ConfigError as err:  # the command line itself: before anything else
+        for line in error_lines(err):
+            print(f'suspopt: error: {line}', file=sys.stderr)
+        return exit_code(err)
     if getattr(args, 'command', None) == 'optimize' and not args.out:
         args.out = f'results/optimize-{args.fidelity}'
     _quiet_libraries()
@@ -77,6 +84,18 @@ def error_lines(err: BaseException) -> list[str]:
         f'unexpected {type(err).__name__}: {err} (this is a bug in suspopt; '
         'SUSPOPT_DEBUG=1 shows the traceback)'
     ]
+
+
+def _printable_output() -> None:
+    """Paths given as bytes that are not UTF-8 (Python keeps them as surrogate escapes)
+    are printed escaped, never an encoding error at the end of a run."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, 'reconfigure', None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors='backslashreplace')
+            except (ValueError, OSError):  # pragma: no cover - a closed or odd stream
+                pass
 
 
 def _quiet_libraries() -> None:

@@ -125,25 +125,74 @@ def _c_stdout_to(fh):
         os.close(saved)
 
 
-def _ipopt_reason(text: str) -> str:
-    """IPOPT's own explanation of a rejected option, in one line."""
-    lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
-    if not lines:
-        return 'rejected by IPOPT'
-    reason = (
-        lines[0]
-        .replace(' Please check the list of available options.', '')
-        .replace(' Check the option documentation.', '')
-        .replace(' Please check the documentation for options.', '')
+@dataclass(frozen=True)
+class _OptionDoc:
+    """What IPOPT's documentation block of an option says (printed when it rejects a
+    value): its type, its valid settings (a string option) or its range (a number)."""
+
+    kind: str = ''
+    settings: tuple[str, ...] = ()
+    range: str = ''
+
+
+def _option_doc(text: str) -> _OptionDoc:
+    """The first documentation block (``### name (Type) ###``) in IPOPT's output."""
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        head = line.strip()
+        if head.startswith('###') and head.endswith('###') and '(' in head:
+            kind = head[head.index('(') + 1 : head.rindex(')')].strip()
+            settings: list[str] = []
+            rng = ''
+            for ln in lines[i + 1 :]:
+                if ln.strip().startswith('###') or ln.startswith('Tried to set'):
+                    break
+                if ln.startswith('\t') and ln.strip():
+                    settings.append(ln.split()[0])
+                elif '<' in ln and '(' in ln and ln.strip()[0] in '-+0123456789':
+                    rng = ' '.join(ln.split())
+            return _OptionDoc(kind, tuple(settings), rng)
+    return _OptionDoc()
+
+
+#: IPOPT's option types, as a user reads them
+_KINDS = {'Real Number': 'a number', 'Integer': 'a whole number', 'String': 'a setting'}
+
+
+def _ipopt_reason(text: str, value: Any) -> str:
+    """Why IPOPT rejected ``value``, in one line: not an option, the wrong type, or a
+    value outside its settings or range (from IPOPT's own documentation of it)."""
+    first = next((' '.join(ln.split()) for ln in text.splitlines() if ln.strip()), '')
+    if 'is not a valid option' in first:
+        return 'not a valid option of IPOPT (its options: coin-or.github.io/Ipopt/OPTIONS.html)'
+    doc = _option_doc(text)
+    allowed = (
+        f' (valid: {", ".join(doc.settings)})'
+        if doc.settings
+        else f' (range: {doc.range}; the default in brackets)'
+        if doc.range
+        else ''
     )
-    ranges = [ln for ln in lines if '<=' in ln or '<' in ln and '(' in ln]
-    if 'Valid Settings:' in lines:
-        i = lines.index('Valid Settings:')
-        valid = [ln.split()[0] for ln in lines[i + 1 :] if not ln.startswith('Default')]
-        reason += f' (valid: {", ".join(valid)})'
-    elif ranges:
-        reason += f' (range: {ranges[0]})'
-    return reason
+    if 'is of type' in first:
+        return f'expects {_KINDS.get(doc.kind, doc.kind or "another type")}, got {value!r}{allowed}'
+    if 'is not a valid setting' in first:
+        return f'{value!r} is ' + ('out of range' if doc.range else 'not a valid setting') + allowed
+    return (first or 'rejected by IPOPT') + allowed
+
+
+def _option_value_problem(name: str, value: Any) -> str | None:
+    """What is wrong with an option before IPOPT sees it (None: let IPOPT judge)."""
+    if not isinstance(name, str) or not name.strip() or name != name.strip():
+        return f': {name!r} is not an option name (empty, or spaces around it)'
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        return f'{name}: must be a number or a string, got {value!r}'
+    if isinstance(value, int) and not -(2**31) <= value < 2**31:
+        return f'{name}: {value} is too large for IPOPT (a whole number below 2^31)'
+    if isinstance(value, float) and not np.isfinite(value):
+        return f'{name}: must be a finite number (IPOPT reads 1e20 as none), got {value!r}'
+    if isinstance(value, str) and '\x00' in value:
+        return f'{name}: {value!r} contains a NUL byte'
+    return None
 
 
 def _add_option(nlp: cyipopt.Problem, name: str, value: Any) -> None:
@@ -180,8 +229,9 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
     accepted = {}
     try:
         for name, value in options.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-                problems.append(f'{name}: must be a number or a string, got {value!r}')
+            problem = _option_value_problem(name, value)
+            if problem is not None:
+                problems.append(problem)
                 continue
             if name in DRIVER_OPTIONS:
                 problems.append(
@@ -195,7 +245,7 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
                         _add_option(nlp, name, value)
                 except TypeError:
                     out.seek(0)
-                    problems.append(f'{name}: IPOPT rejects {value!r}: {_ipopt_reason(out.read())}')
+                    problems.append(f'{name}: {_ipopt_reason(out.read(), value)}')
                     continue
             if name == 'hessian_approximation' and value != 'limited-memory':
                 problems.append(

@@ -290,7 +290,10 @@ def _numerics_checks(cfg: StudyConfig) -> list[str]:
     if op.options:  # checked on IPOPT itself (IPOPT is imported only when needed)
         from suspopt.driver import ipopt_option_problems
 
-        errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
+        errs.extend(
+            f'optimizer.options{p}' if p.startswith(': ') else f'optimizer.options.{p}'
+            for p in ipopt_option_problems(op.options)
+        )
     if tr.initial_guess not in ('auto', 'simulate', 'zero'):
         errs.add(
             'transcription.initial_guess',
@@ -468,7 +471,7 @@ def _mechanism_standing(name: str) -> tuple[float, float, float, str] | list[str
 
     try:
         memo = (name, mechanism_path(name).read_bytes())
-    except OSError:  # load_mechanism names the problem
+    except (OSError, ValueError):  # load_mechanism names the problem
         memo = None
     if memo in _STANDING:
         return _STANDING[memo]
