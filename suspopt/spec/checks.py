@@ -8,9 +8,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from suspopt.errors import ConfigError
 from suspopt.models.design import DESIGN_UNITS, design_kind
 from suspopt.road import PROFILES, TWO_TRACKS, CSVRoad, make_road, profile_fields
+from suspopt.road.profiles import MAX_FEATURE_HEIGHT
 from suspopt.spec.schema import (
     AGGREGATES,
     DESIGN_LIMITS,
@@ -445,11 +448,33 @@ def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int)
             params[k] = parse_value(float, val, f'{where}.{k}', sub, {})
         else:
             params[k] = parse_value(str, val, f'{where}.{k}', sub, {})
+    for k, val in params.items():  # a road's integers are seeds: numpy takes >= 0 only
+        if isinstance(allowed[k], int) and not isinstance(allowed[k], bool) and val < 0:
+            sub.add(f'{where}.{k}', f'must be >= 0 (a seed of the random phases), got {val}')
     if kind == 'csv' and not road.get('file'):
         sub.add(f'{where}.file', 'missing value (path of a distance,height CSV)')
     if sub:
         return list(sub)
-    return make_road(typed_road({'profile': kind, **params})).validate(length, where)
+    profile = make_road(typed_road({'profile': kind, **params}))
+    problems = profile.validate(length, where)
+    if not problems and isinstance(profile, CSVRoad):
+        problems = _csv_height_problems(profile, where)
+    return problems
+
+
+def _csv_height_problems(road: CSVRoad, where: str) -> list[str]:
+    """A measured road's heights are relative to the car's static position (the zero
+    initial state): within :data:`~suspopt.road.profiles.MAX_FEATURE_HEIGHT` of it, in
+    metres (an elevation above sea level, or millimetres typed as metres, is refused)."""
+    s, h = road._data()
+    worst = int(np.argmax(np.abs(h)))
+    if abs(h[worst]) > MAX_FEATURE_HEIGHT:
+        return [
+            f'{where}.file: {road.file}: height {h[worst]:g} m at s = {s[worst]:g} m is '
+            f"beyond a road surface (at most {MAX_FEATURE_HEIGHT:g} m from the car's "
+            'static position; heights are in metres, relative to the start, not elevations)'
+        ]
+    return []
 
 
 #: a wheel rate below this fraction of the spring rate at the reference pose is zero:
