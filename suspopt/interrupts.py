@@ -12,7 +12,9 @@
   atomically).
 
 :func:`handling` installs the handlers (the command line for a whole command; a hold
-installs them itself where they are not); :func:`requested` tells whether a signal came.
+installs them itself where they are not); :func:`requested` tells whether a signal came;
+:func:`checkpoint` stops a held run where nothing is at stake yet (the preparation of a
+solve: its sparsity and coloring).
 Signal handlers can only be installed in the main thread: elsewhere (a Dask worker's
 thread) these are no-ops and Python's defaults apply.
 """
@@ -115,6 +117,14 @@ def hold(raise_on_exit: bool = True) -> Iterator[None]:
             _state.holds -= 1
         if raise_on_exit and _state.holds == 0 and requested():
             raise KeyboardInterrupt
+
+
+def checkpoint() -> None:
+    """A point of a run's preparation (the sparsity and coloring, the first model runs)
+    where nothing computed would be lost: a signal held by a surrounding :func:`hold`
+    stops the run here, at once, instead of at the end of the hold."""
+    if _state.signum is not None:
+        raise KeyboardInterrupt
 
 
 def stage(name: str) -> None:

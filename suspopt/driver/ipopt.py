@@ -812,6 +812,7 @@ class IpoptDriver(Driver):
         snapshots = []
         try:
             for step in (PROBE_STEP, PROBE_STEP, PROBE_STEP / 10, PROBE_STEP / 10):
+                interrupts.checkpoint()
                 x = x0 + step * np.maximum(1.0, np.abs(x0)) * rng.standard_normal(x0.size)
                 try:
                     self._run_model_at(x)
@@ -896,7 +897,9 @@ class IpoptDriver(Driver):
         self._x_run = self._x_jac = None
         self._eval_failed = False
         self._t0 = time.perf_counter()
+        interrupts.checkpoint()  # preparing: a signal stops here at once
         coloring = self._set_up_totals()
+        interrupts.checkpoint()
         self._exact = self.options['hessian'] == 'exact'
         hs = self.hessian_structure() if self._exact else None
         if self._exact and hs is None:

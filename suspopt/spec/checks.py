@@ -318,11 +318,19 @@ def _numerics_checks(cfg: StudyConfig) -> list[str]:
 def _scenario_checks(cfg: StudyConfig, n_tracks: int) -> list[str]:
     errs = Problems()
     names = set()
+    worst_case = cfg.objective.aggregate == 'max' and len(cfg.scenario) > 1
     for i, sc in enumerate(cfg.scenario):
         key = f'scenario[{i}]'
-        if sc.name in names:
+        if sc.name and sc.name in names:
             errs.add(f'{key}.name', f'duplicate scenario name {sc.name!r}')
         names.add(sc.name)
+        if worst_case and math.isfinite(sc.weight) and sc.weight != 1.0:
+            errs.add(
+                f'{key}.weight',
+                f'{sc.weight:g}: the worst case (objective.aggregate = "max") minimizes '
+                'max_s f_s and takes no scenario weights; remove them, or use aggregate = '
+                '"sum" (Σ_s w_s f_s)',
+            )
         for fld, limits in (('speed', SPEED_RANGE), ('horizon', HORIZON_RANGE)):
             val = getattr(sc, fld)
             if not (math.isfinite(val) and val >= 0.0):
@@ -373,6 +381,10 @@ def _size_checks(cfg: StudyConfig) -> list[str]:
                 )
             )
         sizes.append((nlp_size(cfg, sc), sc, key))
+    if not errs:  # the grid can represent the motion: is the motion plausible?
+        from suspopt.spec.modes import mode_problems
+
+        errs.extend(mode_problems(cfg))
     total = sum(n for n, _, _ in sizes)
     if total > MAX_NLP_VARIABLES:
         n, sc, key = max(sizes, key=lambda x: x[0])

@@ -18,7 +18,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.coupling import (
     COUPLING_DESIGNS,
     COUPLING_MODEL_LABELS,
@@ -78,7 +79,7 @@ class CouplingRun:
         self.configs = {m: model_config(config, m) for m in MODELS}
         self.problems: dict[str, VehicleProblem] = {}
         self.study = CouplingStudy(
-            config=keep_inputs(out, config.to_dict()),
+            config=keep_study_inputs(out, config),
             scales=tuple(self.scales),
             terms=tuple(config.terms()),
             design_names=tuple(config.design_names()),

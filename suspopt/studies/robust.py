@@ -21,7 +21,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from suspopt.errors import ConfigError
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.robust import ROBUST, CrossEvaluation, RobustStudy
 from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
@@ -68,13 +69,19 @@ def run_robust(
             'scenario: robust design needs at least two [[scenario]] tables in '
             f'the study file, got {len(config.scenario)}'
         )
+    for i, sc in enumerate(config.scenarios()):
+        if sc.name == ROBUST:  # the label of the robust optimum: it would be overwritten
+            raise ConfigError(
+                f'scenario[{i}].name: {ROBUST!r} names the robust optimum in the results; '
+                'name the scenario otherwise'
+            )
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
     say = log or (lambda msg: None)
     t0 = time.perf_counter()
     scales = resolve_scales(config)
     scenarios = config.scenarios()
     data = RobustStudy(
-        config=keep_inputs(out, config.to_dict()),
+        config=keep_study_inputs(out, config),
         fidelity=fidelity,
         scenarios=tuple(sc.name for sc in scenarios),
         weights=tuple(sc.weight for sc in scenarios),

@@ -30,7 +30,8 @@ from typing import Any
 from suspopt import interrupts
 from suspopt.driver import IterationInfo
 from suspopt.errors import ModelError, RunError
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.solve import (
     NlpSize,
     ProblemStats,
@@ -232,7 +233,7 @@ def optimize(
     start = dict(config.design.initial() if start is None else start)
     scales = resolve_scales(config) if scales is None else scales
     out = _out_path(out_dir)
-    config_dict = config.to_dict() if out is None else keep_inputs(out, config.to_dict())
+    config_dict = config.to_dict() if out is None else keep_study_inputs(out, config)
     save = functools.partial(_save_run, out, config_dict)
     recorder = None if out is None else out / 'cases.sql'
     with built(config, fidelity, scales, problem, progress=progress, recorder=recorder) as vp:
