@@ -5,11 +5,13 @@
   ``KeyboardInterrupt``), or, inside a :func:`hold` — an IPOPT solve and the writing of
   its result — at the end of that: IPOPT stops at its next callback, a converged result
   is written first, then the run stops (exit 130).
-* From the first signal on, SIGINT and SIGTERM have the operating system's default
-  action: a second one ends the process at once, even while the main thread is inside
-  C code that never returns to Python (a long sparse factorization). The shell reports
-  130 (SIGINT) or 143 (SIGTERM); every file written so far is whole (they are written
-  atomically).
+* A second signal ends the process at once, even while the main thread is inside C
+  code that never returns to Python (a long sparse factorization, where the
+  interpreter's handlers cannot run): once the first has been handled, SIGINT and
+  SIGTERM have the operating system's default action (the shell reports 130 or 143);
+  before that, a watchdog process that the interpreter's C-level handler tells of every
+  signal (:func:`signal.set_wakeup_fd`) kills it at the second (the shell reports 137).
+  Every file written so far is whole (they are written atomically).
 
 :func:`handling` installs the handlers (the command line for a whole command; a hold
 installs them itself where they are not); :func:`requested` tells whether a signal came;
@@ -21,6 +23,7 @@ thread) these are no-ops and Python's defaults apply.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -40,6 +43,8 @@ class _State:
     holds: int = 0
     signum: int | None = None
     previous: dict[int, Any] = field(default_factory=dict)
+    #: the watchdog's pid, the wakeup pipe's write end, the previous wakeup fd
+    watchdog: tuple[int, int, int] | None = None
 
 
 _state = _State()
@@ -79,6 +84,73 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+def _watch(r: int) -> None:
+    """The watchdog (a forked child): count the SIGINT and SIGTERM the parent's
+    interpreter received (their numbers, written to the wakeup pipe by its C-level
+    handler); kill the parent at the second; leave when the parent closes the pipe."""
+    try:
+        for sig in SIGNALS:  # a Ctrl-C reaches the whole process group
+            signal.signal(sig, signal.SIG_IGN)
+        signal.set_wakeup_fd(-1)
+        parent, seen = os.getppid(), 0
+        while True:
+            data = os.read(r, 64)
+            if not data:
+                break
+            seen += sum(1 for b in data if b in SIGNALS)
+            if seen >= 2:
+                os.kill(parent, signal.SIGKILL)
+                break
+    finally:
+        os._exit(0)
+
+
+def _start_watchdog() -> tuple[int, int, int] | None:
+    """The watchdog of :func:`_watch` and the wakeup pipe: (pid, write end, previous
+    wakeup fd); None where it cannot run (no fork)."""
+    if not hasattr(os, 'fork'):  # pragma: no cover - not on Linux/macOS
+        return None
+    r, w = os.pipe()
+    os.set_blocking(w, False)
+    previous = signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+    pid = os.fork()
+    if pid == 0:
+        os.close(w)
+        _watch(r)
+    os.close(r)
+    return pid, w, previous
+
+
+def _stop_watchdog(watchdog: tuple[int, int, int] | None) -> None:
+    if watchdog is None:
+        return
+    pid, w, previous = watchdog
+    signal.set_wakeup_fd(previous)
+    os.close(w)  # the watchdog reads end-of-file and leaves
+    try:
+        os.waitpid(pid, 0)
+    except ChildProcessError:  # pragma: no cover - reaped elsewhere
+        pass
+
+
+def _forget_in_child() -> None:
+    """A process forked from one handling signals (a background verification, a local
+    Dask worker) neither writes to the watchdog's pipe nor owns it."""
+    if _state.watchdog is not None:
+        try:
+            signal.set_wakeup_fd(-1)
+        except ValueError:  # pragma: no cover - not the main thread
+            pass
+        try:
+            os.close(_state.watchdog[1])
+        except OSError:
+            pass
+        _state.watchdog = None
+
+
+os.register_at_fork(after_in_child=_forget_in_child)
+
+
 @contextmanager
 def handling() -> Iterator[None]:
     """SIGINT and SIGTERM handled by this module while inside (nested: the outermost
@@ -91,12 +163,15 @@ def handling() -> Iterator[None]:
         _state.previous = {sig: signal.getsignal(sig) for sig in SIGNALS}
         for sig in SIGNALS:
             signal.signal(sig, _on_signal)
+        _state.watchdog = _start_watchdog()
     _state.depth += 1
     try:
         yield
     finally:
         _state.depth -= 1
         if _state.depth == 0:
+            _stop_watchdog(_state.watchdog)
+            _state.watchdog = None
             for signum, previous in _state.previous.items():
                 signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
             _state.previous = {}
@@ -127,12 +202,13 @@ def checkpoint() -> None:
         raise KeyboardInterrupt
 
 
-def stage(name: str) -> None:
+def stage(name: str, **info: Any) -> None:
     """A named point of a run (``'ipopt:iteration'``, ``'write:result.json'``,
-    ``'solve:converged'``): the observers in :data:`OBSERVERS` are called with its name,
-    in order (tests hook faults to stages deterministically; nothing else uses it)."""
+    ``'solve:returned'``): the observers in :data:`OBSERVERS` are called with its name
+    and ``info``, in order (tests hook faults to stages deterministically; nothing else
+    uses it)."""
     for observer in list(OBSERVERS):
-        observer(name)
+        observer(name, **info)
 
 
 #: callables told of every :func:`stage`

@@ -1023,7 +1023,7 @@ class IpoptDriver(Driver):
                 self._evaluate(np.clip(np.asarray(x), lb, ub))
             except cyipopt.CyIpoptEvaluationError:
                 pass
-            interrupts.stage('ipopt:end')
+            interrupts.stage('ipopt:end', status=self.status)
         return self.status not in (0, 1)
 
     def _callbacks(self) -> _Callbacks:

@@ -255,6 +255,7 @@ def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable
     structure (OpenMDAO's public, dense total coloring where :mod:`structure` does not
     support this OpenMDAO version)."""
     t0 = time.perf_counter()
+    interrupts.stage('coloring')
     if structure.supported():
         pattern, method = structural_sparsity(problem, of, wrt).tocsc(), 'structure'
     else:

@@ -28,7 +28,14 @@ from suspopt.records.coupling import (
 )
 from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
-from suspopt.studies.run import Progress, StepFailed, evaluate, optimize, problem_stats
+from suspopt.studies.run import (
+    Interrupted,
+    Progress,
+    StepFailed,
+    evaluate,
+    optimize,
+    problem_stats,
+)
 from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
 
@@ -122,14 +129,20 @@ class CouplingRun:
             return done
         label = COUPLING_MODEL_LABELS[model]
         self.say(f'evaluating the {design.replace("_", " ")} in the {label} model')
-        rec = evaluate(
-            self.configs[model],
-            MODELS[model][0],
-            self.study.designs[design],
-            scales=self.scales,
-            problem=self.problems[model],
-            verify=self.verify,
-        )
+        try:
+            rec = evaluate(
+                self.configs[model],
+                MODELS[model][0],
+                self.study.designs[design],
+                scales=self.scales,
+                problem=self.problems[model],
+                verify=self.verify,
+            )
+        except Interrupted as stop:  # a converged evaluation is kept before stopping
+            if stop.result is not None and stop.result.success:
+                self.study.evaluations[model][design] = stop.result
+                self.save()
+            raise
         self.study.evaluations[model][design] = rec
         self.save()
         return rec
@@ -140,15 +153,23 @@ class CouplingRun:
         self._cell(model, start)
         label = COUPLING_MODEL_LABELS[model]
         self.say(f'optimizing the {label} model from the {start.replace("_", " ")}')
-        step = optimize(
-            self.configs[model],
-            fid,
-            start=self.study.designs[start],
-            scales=self.scales,
-            problem=self.problems[model],
-            guess='keep',
-            verify=self.verify,
-        )
+        try:
+            step = optimize(
+                self.configs[model],
+                fid,
+                start=self.study.designs[start],
+                scales=self.scales,
+                problem=self.problems[model],
+                guess='keep',
+                verify=self.verify,
+            )
+        except Interrupted as stop:  # a converged step is kept (not checked) before stopping
+            if stop.result is not None and stop.result.success:
+                self.study.steps[model] = stop.result
+                self.study.designs[f'{model}_optimum'] = stop.result.design
+                self.study.evaluations[model][f'{model}_optimum'] = stop.result
+                self.save()
+            raise
         self.study.steps[model] = step
         self.save()
         if not step.success:

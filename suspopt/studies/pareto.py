@@ -186,15 +186,24 @@ class ParetoRun:
     def _initial(self, problem: VehicleProblem) -> ParetoInitial:
         """The initial design in the front's model (not converged: no reference point)."""
         start = self.config.design.initial()
-        init = evaluate(
-            self.config,
-            self.fidelity,
-            start,
-            scales=self.scales,
-            problem=problem,
-            label='initial',
-            verify=False,
-        )
+        try:
+            init = evaluate(
+                self.config,
+                self.fidelity,
+                start,
+                scales=self.scales,
+                problem=problem,
+                label='initial',
+                verify=False,
+            )
+        except Interrupted as stop:  # a converged evaluation is kept before stopping
+            if stop.result is not None and stop.result.success:
+                self.front.initial = self._initial_of(start, stop.result)
+                self.save()
+            raise
+        return self._initial_of(start, init)
+
+    def _initial_of(self, start: dict[str, float], init: SolveRecord) -> ParetoInitial:
         J = init.terms
         C, R = comfort_and_road_holding(self.config, J, self.scales[0]) if J else (None, None)
         return ParetoInitial(design=start, success=init.success, terms=J, comfort=C, road_holding=R)

@@ -130,7 +130,7 @@ def solve_step(
         problem.set_initial_guess(guess)  # type: ignore[arg-type]
     with interrupts.hold(raise_on_exit=False):
         record = problem.solve(optimize=optimize)
-        interrupts.stage('solve:returned')
+        interrupts.stage('solve:returned', success=record.success, design=record.design)
         if label:
             record_case(problem, label)
         if record.interrupted or interrupts.requested():
@@ -160,6 +160,7 @@ def verified(
     """``record`` verified by time marching now (``enabled`` false: skipped, and said so)."""
     if record.success and not enabled:
         return record.with_verification(Verification.skipped())
+    interrupts.stage('verify')
     return verify(config, record, scales, modules=problem.modules or None)[0]
 
 
@@ -194,6 +195,7 @@ def built(
     if problem is not None:
         yield problem
         return
+    interrupts.stage('build')
     own = VehicleProblem(config, fidelity, scales, **build)
     try:
         yield own

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from suspopt import interrupts
 from suspopt.errors import ConfigError
 from suspopt.models.metrics import term_kind
 from suspopt.spec import PAPER_SCALES, StudyConfig
@@ -21,6 +22,7 @@ def resolve_scales(config: StudyConfig) -> Scales:
     weighted term whose reference value is negligible (:func:`negligible_terms`) is
     refused, naming it."""
     norm, n = config.objective.normalization, len(config.scenarios())
+    interrupts.stage('scales')
     if norm == 'reference':
         scales = reference_scales(config)
         problems = [
