@@ -164,14 +164,15 @@ def integer(text: str, flag: str, lo: int = 0, hi: int = MAX_INT, what: str = ''
     """A whole number in [lo, hi] (``what`` says what it counts, for the message)."""
     t = text_value(text, flag)
     n = _integer_text(t)
-    span = f'{lo} to {hi}' if hi < MAX_INT else f'>= {lo}'
     meaning = f' ({what})' if what else ''
     if n is None:
+        span = f'{lo} to {hi}' if hi < MAX_INT else f'>= {lo}'
         raise ConfigError(f'{flag}: expected a whole number {span}{meaning}, got {_show(text)}')
+    if n < lo:
+        least = f'need at least {lo}' if lo > 1 else f'must be >= {lo}'
+        raise ConfigError(f'{flag}: {least}{meaning}, got {n}')
     if n > hi:
-        span = f'{lo} to {hi}'
-    if not lo <= n <= hi:
-        raise ConfigError(f'{flag}: must be {span}{meaning}, got {n}')
+        raise ConfigError(f'{flag}: must be at most {hi}{meaning}, got {n}')
     return n
 
 
@@ -183,20 +184,22 @@ def number(
     *,
     positive: bool = False,
     unit: str = '',
+    what: str = '',
 ) -> float:
-    """A finite number in [lo, hi] (``positive``: > 0)."""
+    """A finite number in [lo, hi] (``positive``: > 0); ``what`` it is, for the message."""
     t = text_value(text, flag)
+    subject = f'{flag}: {what} ' if what else f'{flag}: '
     try:
         x = float(t)
     except ValueError:
-        raise ConfigError(f'{flag}: expected a number, got {_show(text)}') from None
+        raise ConfigError(f'{subject}expected a number, got {_show(text)}') from None
     u = f' {unit}' if unit else ''
     if not math.isfinite(x):
-        raise ConfigError(f'{flag}: must be a finite number{u}, got {_show(text)}')
+        raise ConfigError(f'{subject}must be a finite number{u}, got {_show(text)}')
     if positive and not x > 0.0:
-        raise ConfigError(f'{flag}: must be > 0{u}, got {x:g}')
+        raise ConfigError(f'{subject}must be finite and > 0{u}, got {x:g}')
     if not lo <= x <= hi:
-        raise ConfigError(f'{flag}: must be in [{lo:g}, {hi:g}]{u}, got {x:g}')
+        raise ConfigError(f'{subject}must be in [{lo:g}, {hi:g}]{u}, got {x:g}')
     return x
 
 

@@ -63,12 +63,12 @@ def summary(res: SolveRecord) -> str:
     if several:  # every scenario: its f_s, terms and scales (f is their aggregate)
         lines.append(f'  {res.formula()}')
         for sc in res.scenarios:
-            f_s, J = sc.reached
+            f_s, reached = sc.reached
             lines.append(
                 f'  scenario {sc.name} (w = {sc.weight:g}): f_s = '
                 + ('—' if f_s is None else f'{f_s:.6f}')
                 + ('' if res.success else ' (at the stop, not a result)')
-                + (f'   {_terms_text(J)}' if J else '')
+                + (f'   {_terms_text(reached)}' if reached else '')
             )
             lines.append(
                 f'    scales ({res.normalization}) '
@@ -387,7 +387,7 @@ def report(args: argparse.Namespace) -> int:
 def _render_sweep(directory: Path) -> list[Path]:
     """A sweep directory's table and figures (:mod:`suspopt.sweep.summary`)."""
     try:
-        from suspopt.sweep.summary import render as render_sweep  # type: ignore[import-not-found]
+        from suspopt.sweep.summary import render as render_sweep
     except ImportError:
         raise ConfigError(
             f'DIR: {directory} is a sweep directory, which this suspopt cannot render '

@@ -44,8 +44,9 @@ def run_markdown(res: SolveRecord) -> str:
                 + ' | '.join(f'{design[n]:.0f}' for n in names)
                 + f' | {"—" if f is None else f"{f:.4f}"} |'
             )
-    rows = [(sc.name, sc.reached[1]) for sc in res.scenarios] if res.scenarios else []
-    rows = [(name, terms) for name, terms in rows if terms]
+    rows: list[tuple[str, dict[str, float]]] = [
+        (sc.name, terms) for sc in res.scenarios for terms in [sc.reached[1]] if terms
+    ]
     if rows:
         several = len(res.scenarios) > 1
         if not ok:

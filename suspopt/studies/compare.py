@@ -116,23 +116,16 @@ def mechanism_label(mechanism: str) -> str:
 
 def mechanism_labels(mechanisms: list[str]) -> dict[str, str]:
     """Every mechanism's label, unique by construction: a built-in name, or a file's stem
-    (``strut``); files of the same stem in different folders are told apart by their
-    folders (``a/strut``, ``b/strut``), then by a number. Every table row, figure curve
-    and dictionary of a study is keyed by these, never by a bare stem."""
-    distinct = list(dict.fromkeys(mechanisms))
-    labels = {m: mechanism_label(m) for m in distinct}
-    for m in distinct:
-        clash = [o for o in distinct if labels[o] == labels[m]]
-        if len(clash) > 1:
-            for o in clash:
-                p = Path(o)
-                labels[o] = f'{p.parent.name}/{p.stem}' if p.parent.name else p.stem
-    seen: dict[str, int] = {}
-    for m in distinct:
-        k = seen.get(labels[m], 0)
-        seen[labels[m]] = k + 1
-        if k:
-            labels[m] = f'{labels[m]}-{k + 1}'
+    (``strut``); a second mechanism of the same label (another folder's ``strut.toml``,
+    a file named like a built-in) is numbered (``strut-2``). Every table row, figure
+    curve and dictionary of a study is keyed by these, never by a bare stem."""
+    labels: dict[str, str] = {}
+    for m in dict.fromkeys(mechanisms):
+        base = label = mechanism_label(m)
+        k = 2
+        while label in labels.values():
+            label, k = f'{base}-{k}', k + 1
+        labels[m] = label
     return labels
 
 

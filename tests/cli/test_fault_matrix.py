@@ -17,7 +17,8 @@ each fault then reruns it and strikes at one of them —
 The problems are tiny (the paper's half car over one bump for 0.4 s). ``optimize`` gets
 a signal at every stage and a full disk at the first write of every kind of file; the
 studies get the faults that reach their own saving code (the first and second converged
-solves, their record's first write, their recorder), which come early in each run.
+solves, their record's first write, their recorder), which come early in each run, and
+with ``SUSPOPT_FAULT_MATRIX=full`` every stage as ``optimize`` (minutes).
 """
 
 from __future__ import annotations
@@ -204,10 +205,11 @@ def _refused_before_work(argv: list[str], tmp_path: Path, overwrite: bool = True
     assert not strike.seen and sorted(p.name for p in held.iterdir()) == ['notes.txt']
 
 
-# ------------------------------------------------------------------ optimize: every stage
-@pytest.mark.slow
-def test_optimize_under_every_fault_at_every_stage(tmp_path, study_files, monkeypatch):
-    argv = ['optimize', '--fidelity', 'low', '--config', study_files['reference'], '--quiet']
+# ------------------------------------------------------------------ every stage
+def _every_stage(argv: list[str], tmp_path: Path, monkeypatch) -> list[str]:
+    """A first run records the stages; then a signal (SIGINT and SIGTERM alternately) at
+    every stage, and a full disk at the first write of every kind of file. Returns the
+    stages."""
     out = tmp_path / 'out'
     # a coloring cache of this test's own, emptied before each run: coloring is a stage
     monkeypatch.setenv('SUSPOPT_CACHE_DIR', str(tmp_path / 'cache-0'))
@@ -217,26 +219,34 @@ def test_optimize_under_every_fault_at_every_stage(tmp_path, study_files, monkey
     stages = list(dict.fromkeys(first.seen))
     # the first write of each kind of file: the record's, the manifest, an input copy, the
     # table, a figure (every write goes through the one atomic writer)
-    kinds = {'write:manifest.json': 'manifest', 'write:result.json': 'record'}
+    kinds = {'write:manifest.json': 'manifest'}
+    kinds.update({s: 'record' for s in stages if s.endswith(('result.json', 'study.json'))})
     writes = list(
         {
             kinds.get(s, Path(s).suffix): s for s in reversed(stages) if s.startswith('write:')
         }.values()
     )
-    assert {'scales', 'build', 'ipopt:iteration', 'solve:returned', 'verify', 'render'} <= set(
-        stages
-    ), stages
-    faults = ('SIGINT', 'SIGTERM')
     for i, stage in enumerate(s for s in stages if not s.startswith('write:')):
         monkeypatch.setenv('SUSPOPT_CACHE_DIR', str(tmp_path / f'cache-{i + 1}'))
-        strike = _signal_strike(argv, out, stage, 1, faults[i % 2])
-        if stage in ('ipopt:end', 'solve:returned') or stage.startswith('record:'):
-            data = json.loads((out / 'result.json').read_text())  # converged: kept
-            assert data['success'] and data['interrupted'], stage
-            assert data['verification']['state'] == 'interrupted'
-            assert strike.converged
+        _signal_strike(argv, out, stage, 1, ('SIGINT', 'SIGTERM')[i % 2])
     for stage in writes:
         _disk_full(argv, out, stage)
+    return stages
+
+
+@pytest.mark.slow
+def test_optimize_under_every_fault_at_every_stage(tmp_path, study_files, monkeypatch):
+    argv = ['optimize', '--fidelity', 'low', '--config', study_files['reference'], '--quiet']
+    stages = _every_stage(argv, tmp_path, monkeypatch)
+    assert {'scales', 'build', 'coloring', 'ipopt:iteration', 'solve:returned', 'verify'} <= set(
+        stages
+    ), stages
+    assert {'render', 'write:result.json', 'write:table.md', 'write:road.png'} <= set(stages)
+    out = tmp_path / 'out'
+    strike = _signal_strike(argv, out, 'ipopt:end', 1, 'SIGTERM')  # after the last iteration
+    data = json.loads((out / 'result.json').read_text())  # converged: kept as a result
+    assert data['success'] and data['interrupted'] and strike.converged
+    assert data['verification']['state'] == 'interrupted'
     _recorder_full(argv, out, monkeypatch)
     _refused_before_work(argv, tmp_path)
 
@@ -274,6 +284,8 @@ def test_every_study_under_the_faults_that_reach_its_own_saving(
     head, config, record, recorder = STUDIES[command]
     argv = [*head, '--config', study_files[config], '--quiet']
     out = tmp_path / 'out'
+    if os.environ.get('SUSPOPT_FAULT_MATRIX') == 'full':  # every stage, as optimize
+        _every_stage(argv, tmp_path, monkeypatch)
     # a signal just after the first converged solve returned, and as the second did
     _signal_strike(argv, out, 'solve:returned', 1, 'SIGINT')
     assert _records(out), 'the converged solve is kept'
