@@ -236,7 +236,7 @@ def _every_stage(argv: list[str], tmp_path: Path, monkeypatch) -> list[str]:
 
 @pytest.mark.slow
 def test_optimize_under_every_fault_at_every_stage(tmp_path, study_files, monkeypatch):
-    argv = ['optimize', '--fidelity', 'low', '--config', study_files['reference'], '--quiet']
+    argv = ['optimize', '--fidelity', 'low', '--config', study_files['paper'], '--quiet']
     stages = _every_stage(argv, tmp_path, monkeypatch)
     assert {'scales', 'build', 'coloring', 'ipopt:iteration', 'solve:returned', 'verify'} <= set(
         stages
