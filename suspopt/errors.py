@@ -6,10 +6,12 @@ The command line's exit codes:
 * 1 — ``ModelError``: a model evaluation failed (NaN/inf, singular or non-converged
   multibody configuration), or IPOPT did not converge (the result says so);
 * 2 — ``ConfigError``: bad input (study file, mechanism or road data, arguments, a damaged
-  results directory), detected before any work starts;
+  results directory or one in use by another run), detected before any work starts, one
+  line per problem naming the key or the file (:mod:`suspopt.inputs` reads every input);
 * 3 — ``NotVerified``: a result whose collocation and time marching disagree beyond the
   verification tolerance (the results are written, marked ``verified: false``);
-* 4 — ``RunError``: the environment failed (an unwritable or full output directory);
+* 4 — ``RunError``: the environment failed (an unwritable or full output directory, a case
+  recorder that cannot be written, an input the machine cannot read);
 * 130 — interrupted (Ctrl-C or SIGTERM); what finished is kept.
 """
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -35,16 +34,21 @@ def _verdict(res: SolveRecord) -> str:
     )
 
 
+def _terms_text(J: dict[str, float]) -> str:
+    return '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())
+
+
 def summary(res: SolveRecord) -> str:
-    """One result in a few lines (never a failed solve's values as a result)."""
-    d, s = res.design, res.scales
+    """One result in a few lines (never a failed solve's values as a result): every
+    scenario's terms and scales, and how they make f."""
+    d = res.design
+    several = len(res.scenarios) > 1
     lines = [f'{res.fidelity}-fidelity {res.mode} ({res.method}): {_verdict(res)} — {res.status}']
     if res.success:
-        J = res.terms or {}
         lines += [
             '  design   ' + ', '.join(f'{n} = {v:.1f}' for n, v in d.items()),
-            f'  objective f = {res.objective:.6f}   '
-            + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items()),
+            f'  objective f = {res.objective:.6f}'
+            + ('' if several else f'   {_terms_text(res.terms or {})}'),
         ]
     else:  # what IPOPT stopped at is not a result: never printed as one
         stop, J = res.objective_at_stop, res.terms_at_stop or {}
@@ -54,15 +58,27 @@ def summary(res: SolveRecord) -> str:
             '  objective f: none (not converged'
             + (f'; {stop:.6g} at the stop' if stop is not None else '')
             + ')'
-            + (
-                '   at the stop: ' + '  '.join(f'J_{k} = {v:.5g}' for k, v in J.items())
-                if J
-                else ''
-            ),
+            + (f'   at the stop: {_terms_text(J)}' if J and not several else ''),
         ]
-    lines.append(
-        f'  scales ({res.normalization}) ' + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())
-    )
+    if several:  # every scenario: its f_s, terms and scales (f is their aggregate)
+        lines.append(f'  {res.formula()}')
+        for sc in res.scenarios:
+            f_s, reached = sc.reached
+            lines.append(
+                f'  scenario {sc.name} (w = {sc.weight:g}): f_s = '
+                + ('—' if f_s is None else f'{f_s:.6f}')
+                + ('' if res.success else ' (at the stop, not a result)')
+                + (f'   {_terms_text(reached)}' if reached else '')
+            )
+            lines.append(
+                f'    scales ({res.normalization}) '
+                + '  '.join(f'{k} = {v:.5g}' for k, v in sc.scales.items())
+            )
+    else:
+        lines.append(
+            f'  scales ({res.normalization}) '
+            + '  '.join(f'{k} = {v:.5g}' for k, v in res.scales.items())
+        )
     c = res.verification.comparison
     if c is not None:
         lines.append(
@@ -163,7 +179,12 @@ def optimize(args: argparse.Namespace) -> int:
             progress=printer.progress,
             verify=not args.no_verify,
         )
+        printer.log('writing table and figures')
+        from suspopt.output.report import render
+
+        render(out.path)  # the table, figures and input copies of every run directory
     print(summary(res))
+    print(f'results: {out.path}/result.json, table.md, figures/')
     return check_result(res)
 
 
@@ -248,8 +269,6 @@ def coupling(args: argparse.Namespace) -> int:
 
 
 def pareto(args: argparse.Namespace) -> int:
-    if args.points < 2:
-        raise ConfigError(f'--points: need at least 2, got {args.points}')
     config = study_config(args)
     from suspopt.output.rundir import RunDirectory
     from suspopt.studies.pareto import run_pareto
@@ -373,70 +392,66 @@ def sweep(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------------- files
 def init(args: argparse.Namespace) -> int:
+    from suspopt.output.rundir import write_text
     from suspopt.spec.template import default_config_toml
 
     path = Path(args.file)
+    if path.is_dir():
+        raise ConfigError(f'FILE: {path} is a directory')
     if path.exists() and not args.overwrite:
         raise ConfigError(f'{path} exists; pass --overwrite to replace it')
     if not path.parent.is_dir():
         raise ConfigError(f'{path}: directory {path.parent} does not exist')
-    try:
-        path.write_text(default_config_toml(args.model))
-    except OSError as err:
-        raise ConfigError(f'cannot write {path}: {err.strerror}') from None
+    write_text(path, default_config_toml(args.model))  # unwritable, full: RunError (exit 4)
     what = "the paper's case" if args.model == 'half_car' else 'the default full car'
     print(f'wrote {path} ({what}; edit it and pass --config {path})')
     return OK
 
 
 def report(args: argparse.Namespace) -> int:
-    from suspopt.sweep.store import manifest_kind
+    """Re-render a results directory of any kind (a sweep's by
+    :func:`suspopt.sweep.summary.render`), holding its lock: never while a run writes
+    into it."""
+    from suspopt.output.report import render
+    from suspopt.output.rundir import RunDirectory, read_json
 
-    if manifest_kind(args.dir) == 'sweep':  # a sweep's directory: its summary
-        from suspopt.sweep.summary import render as render_sweep
-
-        written = render_sweep(args.dir)
-    else:
-        from suspopt.output.report import render
-
-        written = render(args.dir)
-    print((Path(args.dir) / 'table.md').read_text())
+    d = Path(args.dir)
+    if not d.is_dir():
+        raise ConfigError(f'DIR: {d}: not a directory')
+    with RunDirectory(d, fresh=False, flag='DIR'):
+        manifest = d / 'manifest.json'
+        kind = read_json(manifest).get('kind') if manifest.exists() else None
+        if kind == 'sweep':
+            written = _render_sweep(d)
+        else:
+            written = render(d)
+    table = d / 'table.md'
+    if table.exists():
+        print(table.read_text())
     print('wrote ' + ', '.join(str(p) for p in written))
     return OK
 
 
-def _travel(text: str | None) -> tuple[float, float] | None:
-    if text is None:
-        return None
-    try:
-        travel = tuple(float(x) for x in text.split(','))
-    except ValueError:
-        travel = ()
-    if len(travel) != 2 or not all(math.isfinite(x) for x in travel) or not travel[0] < travel[1]:
-        raise ConfigError(f'--travel: expected MIN,MAX [m] with MIN < MAX, got {text!r}')
-    return travel[0], travel[1]
+def _render_sweep(directory: Path) -> list[Path]:
+    """A sweep directory's table and figures (:mod:`suspopt.sweep.summary`)."""
+    from suspopt.sweep.summary import render as render_sweep
+
+    return list(render_sweep(directory))
 
 
 def kinematics(args: argparse.Namespace) -> int:
     """Kinematic curves of a suspension mechanism: table on stdout, figure and table in --out."""
     from suspopt.multibody.kinematics import curves_table, kinematic_curves, plot_curves
     from suspopt.multibody.mechanism import mechanism_path
+    from suspopt.output.rundir import RunDirectory, write_text
 
-    travel = _travel(args.travel)
-    if args.k is not None and not (math.isfinite(args.k) and args.k > 0.0):
-        raise ConfigError(f'--k: the spring rate must be finite and > 0 N/m, got {args.k:g}')
-    if args.points < 2:
-        raise ConfigError(f'--points: need at least 2, got {args.points}')
-    curves = kinematic_curves(args.mechanism, travel, args.k, args.points)
+    curves = kinematic_curves(args.mechanism, args.travel, args.k, args.points)
     table = curves_table(curves)
     print(table)
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
+    # the lock of every command on a directory; its other files stay (one per mechanism)
+    with RunDirectory(args.out, fresh=False) as out:
         stem = f'kinematics_{mechanism_path(args.mechanism).stem}'
-        (out / f'{stem}.md').write_text(table)
+        write_text(out / f'{stem}.md', table)
         figure = plot_curves(curves, out / f'{stem}.png')
-    except OSError as err:
-        raise ConfigError(f'--out: cannot write to {out}: {err.strerror}') from None
     print(f'wrote {figure} and {out / f"{stem}.md"}')
     return OK

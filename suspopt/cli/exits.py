@@ -10,12 +10,14 @@ codes").
   results directory), detected before any work starts;
 * 3 — ``NotVerified``: a result whose collocation and time marching disagree beyond the
   verification tolerance (the results are written, marked not verified);
-* 4 — ``RunError``: the environment failed (an unwritable or full output directory, out
-  of memory);
+* 4 — ``RunError``: the environment failed (an unwritable or full output directory, a
+  case recorder that cannot be written, out of memory);
 * 130 — interrupted (Ctrl-C or SIGTERM); what finished is kept.
 """
 
 from __future__ import annotations
+
+import sqlite3
 
 from suspopt.errors import ConfigError, ModelError, NotVerified, RunError, SuspoptError
 
@@ -36,6 +38,9 @@ EXIT_CODES: tuple[tuple[type[BaseException], int], ...] = (
     (KeyboardInterrupt, INTERRUPTED),
     (MemoryError, ENVIRONMENT),
     (OSError, ENVIRONMENT),
+    # SQLite's own errors come only from writing a case recorder (reading one is a
+    # ConfigError naming it): a full disk, a read-only or locked file
+    (sqlite3.OperationalError, ENVIRONMENT),
 )
 
 

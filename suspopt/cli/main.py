@@ -21,45 +21,41 @@ configured values).
 from __future__ import annotations
 
 import os
-import signal
+import sqlite3
 import sys
-from types import FrameType
 
+from suspopt import interrupts
 from suspopt.cli.exits import INTERRUPTED, exit_code
+from suspopt.cli.inputs import check_arguments
 from suspopt.cli.parser import build_parser
 from suspopt.errors import ConfigError, SuspoptError
 
 
-def _sigterm_as_interrupt(signum: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default: ``sys.argv``); its exit code."""
-    args = build_parser().parse_args(argv)
+    _printable_output()
+    try:
+        args = check_arguments(build_parser().parse_args(argv))
+    except ConfigError as err:  # the command line itself: before anything else
+        for line in error_lines(err):
+            print(f'suspopt: error: {line}', file=sys.stderr)
+        return exit_code(err)
     if getattr(args, 'command', None) == 'optimize' and not args.out:
         args.out = f'results/optimize-{args.fidelity}'
     _quiet_libraries()
     try:
-        previous = signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
-    except ValueError:  # not in the main thread
-        previous = None
-    try:
-        return int(args.func(args))
+        with interrupts.handling():  # SIGINT and SIGTERM alike (suspopt.interrupts)
+            return int(args.func(args))
     except KeyboardInterrupt:
         print('suspopt: interrupted; results written so far are kept', file=sys.stderr)
         return INTERRUPTED
     except Exception as err:
-        if not isinstance(err, (SuspoptError, MemoryError, OSError)) and os.environ.get(
-            'SUSPOPT_DEBUG'
-        ):
+        expected = (SuspoptError, MemoryError, OSError, sqlite3.OperationalError)
+        if not isinstance(err, expected) and os.environ.get('SUSPOPT_DEBUG'):
             raise
         for line in error_lines(err):
             print(f'suspopt: error: {line}', file=sys.stderr)
         return exit_code(err)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 def error_lines(err: BaseException) -> list[str]:
@@ -73,10 +69,24 @@ def error_lines(err: BaseException) -> list[str]:
         return ['out of memory (a smaller grid or horizon, or fewer scenarios)']
     if isinstance(err, OSError):  # the environment, not suspopt
         return [f'{err.strerror or err}: {err.filename or ""}'.rstrip(': ')]
+    if isinstance(err, sqlite3.OperationalError):
+        return [f'cannot write a case recorder (*.sql in the output directory): {err}']
     return [
         f'unexpected {type(err).__name__}: {err} (this is a bug in suspopt; '
         'SUSPOPT_DEBUG=1 shows the traceback)'
     ]
+
+
+def _printable_output() -> None:
+    """Paths given as bytes that are not UTF-8 (Python keeps them as surrogate escapes)
+    are printed escaped, never an encoding error at the end of a run."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, 'reconfigure', None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors='backslashreplace')
+            except (ValueError, OSError):  # pragma: no cover - a closed or odd stream
+                pass
 
 
 def _quiet_libraries() -> None:

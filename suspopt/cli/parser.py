@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NoReturn
 
 import suspopt.cli.commands as commands
+from suspopt.errors import ConfigError
 
 EPILOG = (
     'Exit codes: 0 ok (verified), 1 model/optimization failure, 2 bad input, '
@@ -15,14 +16,19 @@ EPILOG = (
 )
 
 
-def jobs_count(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        n = -1
-    if n < 0:
-        raise argparse.ArgumentTypeError(f'must be a whole number >= 0, got {text!r}')
-    return n
+class Parser(argparse.ArgumentParser):
+    """argparse with suspopt's error lines: a malformed command line is one line naming
+    the option (``suspopt: error: --fidelity: ...``, exit 2), raised as a ConfigError
+    instead of argparse's usage dump. Every value is read as text here and checked by
+    :func:`suspopt.cli.inputs.check_arguments` (the one input layer)."""
+
+    def error(self, message: str) -> NoReturn:
+        text = ' '.join(message.split())
+        if text.startswith('argument '):
+            text = text.removeprefix('argument ')
+            flag, _, rest = text.partition(': ')
+            text = f'{flag.split("/")[-1]}: {rest}' if rest else text
+        raise ConfigError(f'{text} ({self.prog} --help)')
 
 
 def _common(
@@ -43,7 +49,7 @@ def _common(
     )
     if grid:
         p.add_argument('--segments', metavar='N', help='collocation segments, or "auto"')
-        p.add_argument('--order', type=int, metavar='P', help='Radau order per segment')
+        p.add_argument('--order', metavar='P', help='Radau order per segment')
     if verify:
         p.add_argument(
             '--no-verify',
@@ -64,7 +70,7 @@ def _run_options(p: argparse.ArgumentParser, out: str | None) -> None:
         action='store_true',
         help='reuse a non-empty --out (its earlier results are removed first)',
     )
-    p.add_argument('--max-iter', type=int, dest='max_iter', help='IPOPT iteration limit')
+    p.add_argument('--max-iter', dest='max_iter', metavar='N', help='IPOPT iteration limit')
     p.add_argument('--quiet', action='store_true', help='no progress lines')
 
 
@@ -74,7 +80,6 @@ def _study(sub: Any) -> None:
     _run_options(p, 'results/study')
     p.add_argument(
         '--verify-jobs',
-        type=jobs_count,
         dest='verify_jobs',
         metavar='N',
         help='time-marching verifications run at once in background processes, '
@@ -138,8 +143,7 @@ def _pareto(sub: Any) -> None:
     _common(p)
     p.add_argument(
         '--points',
-        type=int,
-        default=9,
+        default='9',
         metavar='N',
         help='comfort shares 0 ... 1 (default: %(default)s)',
     )
@@ -194,9 +198,7 @@ def _sweep(sub: Any) -> None:
         metavar='DIR',
         help='output directory; rerunning with it resumes the sweep',
     )
-    p.add_argument(
-        '--workers', type=int, metavar='N', help='local worker processes (default: one per core)'
-    )
+    p.add_argument('--workers', metavar='N', help='local worker processes (default: one per core)')
     p.add_argument(
         '--scheduler',
         metavar='tcp://HOST:PORT',
@@ -240,14 +242,12 @@ def _kinematics(sub: Any) -> None:
     )
     p.add_argument(
         '--k',
-        type=float,
         metavar='N/m',
         help="spring rate for the wheel rate (default: the file's, or 30000)",
     )
     p.add_argument(
         '--points',
-        type=int,
-        default=21,
+        default='21',
         metavar='N',
         help='travels in the range (default: %(default)s)',
     )
@@ -299,7 +299,7 @@ COMMANDS: tuple[Callable[[Any], None], ...] = (
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser of every command."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog='suspopt',
         epilog=EPILOG,
         description='Mixed-fidelity suspension design optimization (half or full car + '

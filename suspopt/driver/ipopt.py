@@ -27,9 +27,16 @@ public metadata and drives the model by public calls (``run_solve_nonlinear``, a
   (iteration, objective, constraint violation, elapsed time) and kept in ``history``;
 * design variables named in the ``pinned`` option are held at their current values
   (IPOPT bounds lower = upper);
-* Ctrl-C (SIGINT) or SIGTERM stops IPOPT at the end of the current iteration (a second
-  one interrupts at once), keeping what was computed; :attr:`IpoptDriver.interrupted`
-  tells the caller, which decides what to keep and then stops too;
+* Ctrl-C (SIGINT) or SIGTERM stops IPOPT at once (:mod:`suspopt.interrupts`):
+  every evaluation callback refuses to run after it and IPOPT ends at its next
+  intermediate callback; an iterate that already meets IPOPT's tolerances may take its
+  last iteration, so a solve converging as the signal comes is kept as converged; a
+  second signal ends the process at once. :attr:`IpoptDriver.interrupted` tells the
+  caller, which decides what to keep and then stops too. IPOPT's ``max_wall_time`` is
+  :data:`MAX_WALL_TIME` unless the options say otherwise (a guard against a runaway
+  solve);
+* a case recorder that cannot be written (a full disk) stops IPOPT and is a
+  :class:`~suspopt.errors.RunError` naming the file;
 * the exit status is reported truthfully: :attr:`IpoptDriver.status_message` is IPOPT's
   own, and the run counts as a success (``run()`` returns OpenMDAO's failure flag False,
   ``run_driver()``'s ``DriverResult.success`` is True) only if IPOPT reports
@@ -41,7 +48,7 @@ from __future__ import annotations
 import ctypes
 import os
 import pprint
-import signal
+import sqlite3
 import sys
 import tempfile
 import time
@@ -55,6 +62,7 @@ import openmdao.api as om
 from openmdao.core.driver import Driver, DriverResult, RecordingDebugging
 
 import suspopt.driver.structure as structure
+from suspopt import interrupts
 from suspopt.driver.dataflow import DataFlow, data_flow
 from suspopt.driver.hessian import (
     HessianColoring,
@@ -69,6 +77,7 @@ from suspopt.driver.propagation import TOTALS_METHODS, PropagatedTotals, make_to
 from suspopt.driver.propagation import supported as propagation_supported
 from suspopt.driver.sparsity import Coloring, Variable, compute_coloring
 from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
+from suspopt.errors import RunError
 
 #: IPOPT's return statuses (IpReturnCodes.h).
 IPOPT_STATUS = {
@@ -125,25 +134,74 @@ def _c_stdout_to(fh):
         os.close(saved)
 
 
-def _ipopt_reason(text: str) -> str:
-    """IPOPT's own explanation of a rejected option, in one line."""
-    lines = [' '.join(ln.split()) for ln in text.splitlines() if ln.strip()]
-    if not lines:
-        return 'rejected by IPOPT'
-    reason = (
-        lines[0]
-        .replace(' Please check the list of available options.', '')
-        .replace(' Check the option documentation.', '')
-        .replace(' Please check the documentation for options.', '')
+@dataclass(frozen=True)
+class _OptionDoc:
+    """What IPOPT's documentation block of an option says (printed when it rejects a
+    value): its type, its valid settings (a string option) or its range (a number)."""
+
+    kind: str = ''
+    settings: tuple[str, ...] = ()
+    range: str = ''
+
+
+def _option_doc(text: str) -> _OptionDoc:
+    """The first documentation block (``### name (Type) ###``) in IPOPT's output."""
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        head = line.strip()
+        if head.startswith('###') and head.endswith('###') and '(' in head:
+            kind = head[head.index('(') + 1 : head.rindex(')')].strip()
+            settings: list[str] = []
+            rng = ''
+            for ln in lines[i + 1 :]:
+                if ln.strip().startswith('###') or ln.startswith('Tried to set'):
+                    break
+                if ln.startswith('\t') and ln.strip():
+                    settings.append(ln.split()[0])
+                elif '<' in ln and '(' in ln and ln.strip()[0] in '-+0123456789':
+                    rng = ' '.join(ln.split())
+            return _OptionDoc(kind, tuple(settings), rng)
+    return _OptionDoc()
+
+
+#: IPOPT's option types, as a user reads them
+_KINDS = {'Real Number': 'a number', 'Integer': 'a whole number', 'String': 'a setting'}
+
+
+def _ipopt_reason(text: str, value: Any) -> str:
+    """Why IPOPT rejected ``value``, in one line: not an option, the wrong type, or a
+    value outside its settings or range (from IPOPT's own documentation of it)."""
+    first = next((' '.join(ln.split()) for ln in text.splitlines() if ln.strip()), '')
+    if 'is not a valid option' in first:
+        return 'not a valid option of IPOPT (its options: coin-or.github.io/Ipopt/OPTIONS.html)'
+    doc = _option_doc(text)
+    allowed = (
+        f' (valid: {", ".join(doc.settings)})'
+        if doc.settings
+        else f' (range: {doc.range}; the default in brackets)'
+        if doc.range
+        else ''
     )
-    ranges = [ln for ln in lines if '<=' in ln or '<' in ln and '(' in ln]
-    if 'Valid Settings:' in lines:
-        i = lines.index('Valid Settings:')
-        valid = [ln.split()[0] for ln in lines[i + 1 :] if not ln.startswith('Default')]
-        reason += f' (valid: {", ".join(valid)})'
-    elif ranges:
-        reason += f' (range: {ranges[0]})'
-    return reason
+    if 'is of type' in first:
+        return f'expects {_KINDS.get(doc.kind, doc.kind or "another type")}, got {value!r}{allowed}'
+    if 'is not a valid setting' in first:
+        return f'{value!r} is ' + ('out of range' if doc.range else 'not a valid setting') + allowed
+    return (first or 'rejected by IPOPT') + allowed
+
+
+def _option_value_problem(name: str, value: Any) -> str | None:
+    """What is wrong with an option before IPOPT sees it (None: let IPOPT judge)."""
+    if not isinstance(name, str) or not name.strip() or name != name.strip():
+        return f': {name!r} is not an option name (empty, or spaces around it)'
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        return f'{name}: must be a number or a string, got {value!r}'
+    if isinstance(value, int) and not -(2**31) <= value < 2**31:
+        return f'{name}: {value} is too large for IPOPT (a whole number below 2^31)'
+    if isinstance(value, float) and not np.isfinite(value):
+        return f'{name}: must be a finite number (IPOPT reads 1e20 as none), got {value!r}'
+    if isinstance(value, str) and '\x00' in value:
+        return f'{name}: {value!r} contains a NUL byte'
+    return None
 
 
 def _add_option(nlp: cyipopt.Problem, name: str, value: Any) -> None:
@@ -180,8 +238,9 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
     accepted = {}
     try:
         for name, value in options.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-                problems.append(f'{name}: must be a number or a string, got {value!r}')
+            problem = _option_value_problem(name, value)
+            if problem is not None:
+                problems.append(problem)
                 continue
             if name in DRIVER_OPTIONS:
                 problems.append(
@@ -195,7 +254,7 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
                         _add_option(nlp, name, value)
                 except TypeError:
                     out.seek(0)
-                    problems.append(f'{name}: IPOPT rejects {value!r}: {_ipopt_reason(out.read())}')
+                    problems.append(f'{name}: {_ipopt_reason(out.read(), value)}')
                     continue
             if name == 'hessian_approximation' and value != 'limited-memory':
                 problems.append(
@@ -280,6 +339,20 @@ def _output_file_problems(name: str, value: Any) -> list[str]:
 #: agree to rounding); ``benchmarks/ipopt_iterations.py --options sherman,extended``
 #: measures both.
 LIMITED_MEMORY_OPTIONS: dict[str, Any] = {'limited_memory_aug_solver': 'extended'}
+
+#: IPOPT's ``max_wall_time`` [s] of every solve unless a study's ``optimizer.options``
+#: sets it: a guard against a solve that runs away (IPOPT checks it once per iteration)
+MAX_WALL_TIME = 3600.0
+
+#: an iterate within this factor of IPOPT's tolerances may take one more iteration after
+#: a signal (it is about to converge: its result is kept as converged)
+NEAR_CONVERGED = 100.0
+
+
+class _Stopped(Exception):
+    """Raised in an evaluation callback after a signal: cyipopt keeps it, IPOPT ends at
+    its next intermediate callback, and :meth:`IpoptDriver.run` catches it."""
+
 
 #: the driver's ``hessian`` option: how IPOPT gets the Hessian of the Lagrangian
 HESSIAN_METHODS = ('limited-memory', 'exact')
@@ -369,6 +442,9 @@ class IpoptDriver(Driver):
         self._x_jac: np.ndarray | None = None
         self._x_lin: np.ndarray | None = None
         self._eval_failed = False
+        self._near_converged = False
+        self._x_accepted: np.ndarray | None = None
+        self._failure: BaseException | None = None
         self._t0 = time.perf_counter()
 
     def _declare_options(self) -> None:
@@ -529,8 +605,15 @@ class IpoptDriver(Driver):
         self.n_function_evals += 1
         self.problem.model.run_solve_nonlinear()
 
+    def _stop_check(self) -> None:
+        """After a signal, an evaluation does not run (unless the last iterate was about
+        to converge: it may finish that iteration): IPOPT stops at its next callback."""
+        if self._nlp is not None and interrupts.requested() and not self._near_converged:
+            raise _Stopped
+
     def _evaluate(self, x: np.ndarray) -> None:
         """Run the model at x (driver-scaled) unless it was the last point run."""
+        self._stop_check()
         if self._x_run is not None and np.array_equal(x, self._x_run):
             if self._eval_failed:
                 raise cyipopt.CyIpoptEvaluationError()
@@ -559,6 +642,7 @@ class IpoptDriver(Driver):
         return self._totals.compute()
 
     def _jacobian_values(self, x: np.ndarray) -> None:
+        self._stop_check()
         if self._x_jac is not None and np.array_equal(x, self._x_jac):
             return
         self._evaluate(x)
@@ -639,11 +723,28 @@ class IpoptDriver(Driver):
             phys = x / self._dv_scaler - self._dv_adder
             info.design = {n: float(phys[self._dv_slices[n]][0]) for n in self.options['watch']}
         self.history.append(info)
-        self._record(x)
+        self._x_accepted = None if x is None else np.array(x, dtype=float)
+        try:
+            self._record(x)
+        except RunError as err:  # the recorder's disk is full: stop, raise it after IPOPT
+            self._failure = err
+            return False
+        interrupts.stage('ipopt:iteration')
         progress = self.options['progress']
         if progress is not None:
             progress(info)
-        return not self.interrupted
+        if interrupts.requested():
+            self.interrupted = True
+            if self._near_converged:  # the one extra iteration was taken
+                return False
+            tol = float(self.options['tol'])
+            self._near_converged = (
+                info.dual_infeasibility <= NEAR_CONVERGED * tol
+                and info.constraint_violation <= NEAR_CONVERGED * tol
+                and float(mu) <= NEAR_CONVERGED * tol
+            )
+            return self._near_converged
+        return True
 
     def _current_iterate(self) -> np.ndarray | None:
         """IPOPT's current iterate (driver-scaled), or the last point run where IPOPT does
@@ -659,12 +760,18 @@ class IpoptDriver(Driver):
         if not (self._has_recorders or self.options['debug_print']):
             self.iter_count += 1
             return
-        with RecordingDebugging(self._get_name(), self.iter_count, self):
-            if x is not None and (self._x_run is None or not np.array_equal(x, self._x_run)):
-                try:
-                    self._evaluate(np.asarray(x, dtype=float))
-                except cyipopt.CyIpoptEvaluationError:
-                    pass
+        try:
+            with RecordingDebugging(self._get_name(), self.iter_count, self):
+                if x is not None and (self._x_run is None or not np.array_equal(x, self._x_run)):
+                    try:
+                        self._evaluate(np.asarray(x, dtype=float))
+                    except (cyipopt.CyIpoptEvaluationError, _Stopped):
+                        pass
+        except sqlite3.Error as err:
+            names = [getattr(r, '_filepath', '') for r in self._rec_mgr._recorders]
+            raise RunError(
+                f'cannot write the case recorder {", ".join(map(str, names))}: {err}'
+            ) from None
         self.iter_count += 1
 
     # ------------------------------------------------------------------ Hessian
@@ -705,6 +812,7 @@ class IpoptDriver(Driver):
         snapshots = []
         try:
             for step in (PROBE_STEP, PROBE_STEP, PROBE_STEP / 10, PROBE_STEP / 10):
+                interrupts.checkpoint()
                 x = x0 + step * np.maximum(1.0, np.abs(x0)) * rng.standard_normal(x0.size)
                 try:
                     self._run_model_at(x)
@@ -727,7 +835,7 @@ class IpoptDriver(Driver):
         (:class:`~suspopt.driver.hessian.PropagatedHessian`) where the totals are
         propagated, else by differences of the gradient of the whole model."""
         assert self._hess is not None and self._totals is not None
-        self._evaluate(x)
+        self._evaluate(x)  # after a signal: _Stopped
         w_obj = float(obj_factor) * self._obj_scaler
         w_con = np.asarray(lam) * self._con_scaler
         self.n_hessian_evals += 1
@@ -783,10 +891,15 @@ class IpoptDriver(Driver):
         self.history = []
         self.status, self.status_message, self.last_error = None, '', None
         self.interrupted = False
+        self._near_converged = False
+        self._x_accepted = None
+        self._failure = None
         self._x_run = self._x_jac = None
         self._eval_failed = False
         self._t0 = time.perf_counter()
+        interrupts.checkpoint()  # preparing: a signal stops here at once
         coloring = self._set_up_totals()
+        interrupts.checkpoint()
         self._exact = self.options['hessian'] == 'exact'
         hs = self.hessian_structure() if self._exact else None
         if self._exact and hs is None:
@@ -829,6 +942,7 @@ class IpoptDriver(Driver):
             'tol': self.options['tol'],
             'print_level': self.options['print_level'],
             'hessian_approximation': 'exact' if self._exact else 'limited-memory',
+            'max_wall_time': MAX_WALL_TIME,
         }
         if not self._exact:
             opts.update(LIMITED_MEMORY_OPTIONS)
@@ -882,39 +996,34 @@ class IpoptDriver(Driver):
         for key, val in self.opt_settings.items():
             _add_option(nlp, key, val)
 
-        def on_signal(signum, frame):
-            if self.interrupted:
-                raise KeyboardInterrupt
-            self.interrupted = True
-            print(
-                '\nInterrupt: stopping IPOPT after this iteration (again to abort).',
-                file=sys.stderr,
-            )
-
-        previous = {}
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        # the solve and the final model run inside a hold: a first signal stops IPOPT
+        # at its next callback (see the module docstring), never between a converged
+        # solve and the caller's record of it; the caller learns it from `interrupted`
+        with interrupts.hold(raise_on_exit=False):
+            interrupts.stage('ipopt:start')
             try:
-                previous[sig] = signal.signal(sig, on_signal)
-            except ValueError:  # not in the main thread
+                x, info = nlp.solve(x0)
+            except _Stopped:  # cyipopt re-raises the evaluation refused after a signal
+                x = self._x_accepted if self._x_accepted is not None else x0
+                info = {'status': 5, 'status_msg': b'User_Requested_Stop'}
+            finally:
+                nlp.close()
+                self._nlp = None
+            if self._failure is not None:
+                raise self._failure
+            self.interrupted = self.interrupted or interrupts.requested()
+            self.status = int(info['status'])
+            self.status_message = IPOPT_STATUS.get(
+                self.status, info['status_msg'].decode(errors='replace')
+            )
+            # leave the model at IPOPT's final point (inside the bounds: IPOPT relaxes them
+            # by its bound_relax_factor internally)
+            self._x_run = None
+            try:  # outside the solve (no stop check): the record needs this point
+                self._evaluate(np.clip(np.asarray(x), lb, ub))
+            except cyipopt.CyIpoptEvaluationError:
                 pass
-        try:
-            x, info = nlp.solve(x0)
-        finally:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
-            nlp.close()
-            self._nlp = None
-        self.status = int(info['status'])
-        self.status_message = IPOPT_STATUS.get(
-            self.status, info['status_msg'].decode(errors='replace')
-        )
-        # leave the model at IPOPT's final point (inside the bounds: IPOPT relaxes them by
-        # its bound_relax_factor internally)
-        self._x_run = None
-        try:
-            self._evaluate(np.clip(np.asarray(x), lb, ub))
-        except cyipopt.CyIpoptEvaluationError:
-            pass
+            interrupts.stage('ipopt:end', status=self.status)
         return self.status not in (0, 1)
 
     def _callbacks(self) -> _Callbacks:

@@ -32,6 +32,7 @@ import openmdao.api as om
 import scipy.sparse as sp
 
 import suspopt.driver.structure as structure
+from suspopt import interrupts
 from suspopt.driver.dataflow import DataFlow, data_flow
 
 
@@ -175,6 +176,7 @@ def forward_patterns(
         return _bool(out)
 
     for group in flow.groups:
+        interrupts.checkpoint()  # a signal stops the preparation at once (nothing to keep)
         if not flow.is_cycle(group):
             S[group[0]] = evaluate(group[0])
             if visit is not None:
@@ -217,7 +219,9 @@ def color_columns(pattern: sp.spmatrix) -> np.ndarray:
     G = (Jc.T @ J.tocsr()).tocsr()  # columns sharing a row
     colors = np.full(n, -1, dtype=np.int64)
     taken = np.zeros(n + 1, dtype=bool)
-    for c in order:
+    for i, c in enumerate(order):
+        if not i % 4096:
+            interrupts.checkpoint()  # a signal stops the preparation at once
         if degree[c] == 0:
             continue
         nb = colors[G.indices[G.indptr[c] : G.indptr[c + 1]]]
@@ -251,6 +255,7 @@ def compute_coloring(problem: om.Problem, of: list[Variable], wrt: list[Variable
     structure (OpenMDAO's public, dense total coloring where :mod:`structure` does not
     support this OpenMDAO version)."""
     t0 = time.perf_counter()
+    interrupts.stage('coloring')
     if structure.supported():
         pattern, method = structural_sparsity(problem, of, wrt).tocsc(), 'structure'
     else:

@@ -18,13 +18,13 @@ geometric input is given in the global frame at the reference pose (t = 0).
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from suspopt.errors import ConfigError
+from suspopt.inputs import check_path, read_toml
 from suspopt.multibody.elements import (
     FORCE_TYPES,
     JOINT_TYPES,
@@ -152,16 +152,9 @@ def load_mechanism(name_or_path: str, *, suspension: bool = False) -> Mechanism:
     """Read and validate a mechanism TOML file (or a built-in name such as
     ``'double_wishbone'``). With ``suspension=True`` the file must also assign the vehicle
     interface roles of :data:`SUSPENSION_ROLES`. Raises :class:`ConfigError`."""
+    check_path(name_or_path, 'mechanism file')
     path = mechanism_path(name_or_path)
-    try:
-        with path.open('rb') as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(
-            f'mechanism file not found: {path} (built-in: {", ".join(builtin_mechanisms())})'
-        ) from None
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        raise ConfigError(f'cannot read mechanism file {path}: {err}') from None
+    data = read_toml(path, 'mechanism file', hint=f'built-in: {", ".join(builtin_mechanisms())}')
     return mechanism_from_dict(data, source=str(path), suspension=suspension)
 
 

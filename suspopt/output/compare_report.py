@@ -21,7 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from suspopt.output.figures import plot_set, read_setting, road_figure, save_figure
-from suspopt.output.format import design_columns, term_columns
+from suspopt.output.format import (
+    design_columns,
+    scenario_terms,
+    study_scales_line,
+    term_columns,
+)
 from suspopt.output.rundir import read_trajectory, write_text
 from suspopt.records.compare import LOW, CompareStudy, Kinematics, MechanismCurves
 from suspopt.records.solve import SolveRecord
@@ -81,16 +86,15 @@ def _header(data: CompareStudy) -> list[str]:
     for f in data.failures:
         where = f.model + (f' at {f.design}' if f.design else '')
         lines.append(f'**Failed:** {f.what} in {where}: {f.status} {f.message}'.rstrip())
-    s, terms, weights = data.scales[0], data.terms, data.weights
     return (
         lines
         + ([''] if lines else [])
         + [
-            f'Normalization `{data.normalization}`, s = ('
-            + ', '.join(f'{t} {s[t]:.6g}' for t in terms)
-            + '); f = '
-            + ' + '.join(f'{weights[t]:g} J_{t}/s_{t}' for t in terms if weights.get(t))
-            + '. Every topology is optimized from the low-fidelity optimum.',
+            study_scales_line(
+                data.config, data.terms, data.scales, data.normalization, data.weights
+            ),
+            '',
+            'Every topology is optimized from the low-fidelity optimum.',
             '',
         ]
     )
@@ -217,21 +221,26 @@ def compare_markdown(data: CompareStudy) -> str:
         'weighted J_k, and the term)',
         _agreement_cell,
     )
+    several = len(data.scales) > 1
     lines += [
         '',
-        "**Objective terms J_k at each model's own optimum** (collocation)",
+        "**Objective terms J_k at each model's own optimum** (collocation"
+        + (', every scenario)**' if several else ')**'),
         '',
-        f'| model | {term_columns(terms)} |',
-        '|---|' + '---|' * len(terms),
+        '| model | ' + ('scenario | ' if several else '') + f'{term_columns(terms)} |',
+        '|---|' + ('---|' if several else '') + '---|' * len(terms),
     ]
     for m in data.models:
         best = data.best.get(m)
         c = data.cell(best.own_optimum, m) if best is not None else None
-        J = c.terms if c is not None else None
-        if J:
-            lines.append(
-                f'| {model_label(data, m)} | ' + ' | '.join(f'{J[t]:.5g}' for t in terms) + ' |'
-            )
+        for scenario, J in scenario_terms(c):
+            if J:
+                lines.append(
+                    f'| {model_label(data, m)} | '
+                    + (f'{scenario} | ' if several else '')
+                    + ' | '.join(f'{J[t]:.5g}' for t in terms)
+                    + ' |'
+                )
     if data.wall_time_s is not None:
         n = sum(1 for c in data.cells.values() if c.mode == 'evaluate')
         lines += [

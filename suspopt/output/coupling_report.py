@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from suspopt.output.figures import save_figure
-from suspopt.output.format import design_columns, scales_line
+from suspopt.output.format import design_columns, scenario_terms, study_scales_line
 from suspopt.output.rundir import write_text
 from suspopt.records.coupling import (
     COUPLING_DESIGN_LABELS as DESIGN_LABELS,
@@ -52,7 +52,7 @@ def coupling_markdown(res: CouplingStudy) -> str:
     """The tables of a ``suspopt coupling`` directory (:mod:`suspopt.studies.coupling`)."""
     names, designs = res.design_names, res.designs
     out = [
-        scales_line(res.terms, res.scales, res.normalization, res.weights),
+        study_scales_line(res.config, res.terms, res.scales, res.normalization, res.weights),
         '',
         '**The four designs**',
         '',
@@ -92,23 +92,27 @@ def coupling_markdown(res: CouplingStudy) -> str:
             c = e.verification.comparison if e is not None else None
             row.append(f'{c.max_rel_diff:.2g}' if c is not None else '—')
         out.append(f'| {DESIGN_LABELS[d]} | ' + ' | '.join(row) + ' |')
+    several = len(res.scales) > 1
     out += [
         '',
-        '**Objective terms J_k** (collocation)',
+        '**Objective terms J_k** (collocation' + (', every scenario)' if several else ')'),
         '',
-        '| design | model | ' + ' | '.join(res.terms) + ' |',
-        '|---|---|' + '---|' * len(res.terms),
+        '| design | model | ' + ('scenario | ' if several else '') + ' | '.join(res.terms) + ' |',
+        '|---|---|' + ('---|' if several else '') + '---|' * len(res.terms),
     ]
     for d in DESIGNS:
         for m in MODEL_LABELS:
             e = res.evaluation(m, d)
-            J = e.terms if e is not None else None
-            if J:
-                out.append(
-                    f'| {DESIGN_LABELS[d]} | {m} | '
-                    + ' | '.join(f'{J[t]:.5g}' for t in res.terms)
-                    + ' |'
-                )
+            if e is None:
+                continue
+            for scenario, J in scenario_terms(e):
+                if J:
+                    out.append(
+                        f'| {DESIGN_LABELS[d]} | {m} | '
+                        + (f'{scenario} | ' if several else '')
+                        + ' | '.join(f'{J[t]:.5g}' for t in res.terms)
+                        + ' |'
+                    )
     if res.summary is not None:
         out += ['', _summary_text(res.summary)]
     if res.wall_time_s is not None:

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError
-from suspopt.models.layout import Corner, VehicleLayout, full_car, half_car
+from suspopt.models.layout import Corner, VehicleLayout, full_car, half_car, quarter_car
 from suspopt.output.rundir import atomic_path, resolve_inputs
 from suspopt.records.codec import Node
 from suspopt.records.trajectory import Trajectory
@@ -93,6 +93,7 @@ def plot_curves(
     dotted)."""
     if panel.axle is not None:
         z = np.asarray(values[WHEELS])
+        z = z.reshape(z.shape[0], -1)  # one corner (a quarter car): a column
         for c, corner in enumerate(corners):
             if corner.axle != panel.axle:
                 continue
@@ -151,12 +152,16 @@ def read_setting(out: Path, config: dict[str, Any], file: str) -> Setting:
 
     cfg = Node(resolve_inputs(out, config), file, 'config')
     v, man = cfg.get('vehicle'), cfg.get('maneuver')
-    front, rear = v.get('front'), v.get('rear')
-    a1, a2 = front.get('axle_position').number(), rear.get('axle_position').number()
-    if v.get('model').text() == 'full_car':
-        lay = full_car(a1, a2, front.get('track').number(), rear.get('track').number())
+    model = v.get('model').text()
+    if model == 'quarter_car':  # one corner: no rear axle in its description
+        lay = quarter_car()
     else:
-        lay = half_car(a1, a2)
+        front, rear = v.get('front'), v.get('rear')
+        a1, a2 = front.get('axle_position').number(), rear.get('axle_position').number()
+        if model == 'full_car':
+            lay = full_car(a1, a2, front.get('track').number(), rear.get('track').number())
+        else:
+            lay = half_car(a1, a2)
     scenarios = cfg.opt('scenario')
     sc = scenarios.items()[0] if scenarios is not None and scenarios.items() else None
     road = (sc.opt('road') if sc is not None else None) or cfg.get('road')

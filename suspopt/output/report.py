@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from suspopt import interrupts
 from suspopt.output.rundir import read_manifest, read_record
 from suspopt.records.compare import CompareStudy
 from suspopt.records.coupling import CouplingStudy
@@ -32,6 +33,7 @@ def render(out_dir: str | Path) -> list[Path]:
     """Write ``table.md`` and the figures of a run directory of any kind, possibly
     partial (the kind from its manifest). A damaged or incomplete one is a ConfigError."""
     out = Path(out_dir)
+    interrupts.stage('render')
     manifest = read_manifest(out)
     record = read_record(out)
     file = str(out / manifest.record)

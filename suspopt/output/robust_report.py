@@ -7,7 +7,14 @@ from pathlib import Path
 import numpy as np
 
 from suspopt.output.figures import save_figure
-from suspopt.output.format import FIDELITY_LABELS, design_columns, obj, verdict
+from suspopt.output.format import (
+    FIDELITY_LABELS,
+    aggregate_formula,
+    design_columns,
+    obj,
+    scales_line,
+    verdict,
+)
 from suspopt.output.rundir import write_text
 from suspopt.records.robust import ROBUST, RobustStudy
 
@@ -20,10 +27,25 @@ def robust_markdown(data: RobustStudy) -> str:
     """The robustness table (:mod:`suspopt.studies.robust`), as Markdown."""
     names, scen = data.design_names, data.scenarios
     agg = data.formula()
+    weighted = data.aggregate != 'max'  # the worst case takes no weights (refused)
+    named = list(zip(scen, data.weights))
+    listed = ', '.join(f'{n} (w = {w:g})' if weighted else n for n, w in named)
     lines = [
         f'Robust design, {FIDELITY_LABELS[data.fidelity]} model: {len(scen)} scenarios '
-        f'({", ".join(f"{n} (w = {w:g})" for n, w in zip(scen, data.weights))}), '
-        f'objective {agg}, each f_s normalized by its own scales.',
+        f'({listed}), objective {agg} = {aggregate_formula(named, data.aggregate)}'
+        + ('' if weighted else ' (the worst case: no scenario weights)')
+        + ', each f_s normalized by its own scales.',
+        '',
+        scales_line(
+            tuple(data.scales[0]) if data.scales else (),
+            data.scales,
+            (data.config.get('objective') or {}).get('normalization', ''),
+            (data.config.get('objective') or {}).get('weights', {}),
+            list(zip(scen, data.weights)),
+            data.aggregate,
+        )
+        if data.scales
+        else '',
         '',
         '**Optima** (collocation, each in its own problem)',
         '',

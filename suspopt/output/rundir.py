@@ -3,9 +3,11 @@
 * :func:`write_json` / :func:`read_json` — atomic JSON (a reader never sees half a file;
   a damaged file is a one-line :class:`~suspopt.errors.ConfigError` naming it);
 * :class:`RunDirectory` — an output directory of one run: one run at a time (a lock
-  file, a second run is refused at once), ``--overwrite`` clears what a run writes before
-  it starts, and the inputs it used (road CSV files, mechanism files) are copied in so a
-  report never reads the user's original files;
+  file, a second run is refused at once: the one lock protocol of every command that
+  writes into a directory, ``report`` and ``kinematics`` included), ``--overwrite``
+  clears what a run writes before it starts (its manifest first, so a directory is never
+  a run mixed of two), and the inputs it used (road CSV files, mechanism files) are
+  copied in so a report never reads the user's original files;
 * :func:`write_record` / :func:`read_record` — a run's typed record (:mod:`suspopt.records`)
   in its file, with ``manifest.json`` naming its kind and format; reading validates it (a
   damaged file is a ConfigError naming the file and the key);
@@ -15,6 +17,7 @@
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
 import shutil
@@ -25,7 +28,9 @@ from typing import Any, TypeVar, overload
 
 import numpy as np
 
+from suspopt import interrupts
 from suspopt.errors import ConfigError, RunError
+from suspopt.inputs import read_bytes
 from suspopt.records.codec import Record, read_document
 from suspopt.records.manifest import DOCUMENTS, MANIFEST, Manifest
 from suspopt.records.trajectory import Trajectory
@@ -83,6 +88,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         raise RunError(f'cannot write {path}: {err.strerror}') from None
     try:
         yield Path(tmp)
+        interrupts.stage(f'write:{path.name}')  # a test's fault (a full disk) lands here
         os.chmod(tmp, NEW_FILE_MODE)
         os.replace(tmp, path)
     except BaseException as err:
@@ -206,9 +212,10 @@ class DirectoryLock:
     the file is removed on release, and a lock taken on a file its previous holder had
     just removed is taken again on the new file."""
 
-    def __init__(self, directory: str | Path, holder: str = 'suspopt'):
+    def __init__(self, directory: str | Path, holder: str = 'suspopt', flag: str = '--out'):
         self.directory = Path(directory)
         self.holder = holder
+        self.flag = flag
         self._fd: int | None = None
 
     def acquire(self) -> None:
@@ -220,14 +227,14 @@ class DirectoryLock:
             try:
                 fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
             except OSError as err:
-                raise RunError(f'--out: cannot create {path}: {err.strerror}') from None
+                raise RunError(f'{self.flag}: cannot create {path}: {err.strerror}') from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
                 holder = os.read(fd, 200).decode(errors='replace').strip() or 'another process'
                 os.close(fd)
                 raise ConfigError(
-                    f'--out: {self.directory} is in use by another suspopt run ({holder}; '
+                    f'{self.flag}: {self.directory} is in use by another suspopt run ({holder}; '
                     f'lock {LOCK}); wait for it or choose another directory'
                 ) from None
             try:
@@ -262,48 +269,65 @@ class DirectoryLock:
         self.release()
 
 
+#: suffixes of the files a run writes (cleared by ``--overwrite`` wherever they are)
+RUN_SUFFIXES = ('.sql', '.json', '.md', '.npz', '.png', '.tmp')
+
+
+def run_outputs(directory: Path) -> list[Path]:
+    """What a run may have written into ``directory`` (not the lock, not a user's other
+    files), its manifest and records first."""
+    found = [
+        q
+        for q in directory.iterdir()
+        if q.name != LOCK and (q.name in RUN_OUTPUTS or q.suffix in RUN_SUFFIXES)
+    ]
+    first = {MANIFEST: 0, **{file: 1 for _, file in DOCUMENTS.values()}}
+    return sorted(found, key=lambda q: (first.get(q.name, 2), q.name))
+
+
 class RunDirectory:
     """The output directory of one run (see the module docstring).
 
     Use as a context manager: entering takes the lock (refusing a directory another run
-    holds) and prepares the directory; leaving releases the lock."""
+    holds) and prepares the directory; leaving releases the lock. ``fresh`` (every
+    command that starts a run): the directory must hold no results, or ``overwrite``
+    clears them first; without it (``report``, ``kinematics``) the lock only. ``flag``
+    names the option in messages."""
 
-    def __init__(self, path: str | Path, overwrite: bool = False):
+    def __init__(
+        self, path: str | Path, overwrite: bool = False, *, fresh: bool = True, flag: str = '--out'
+    ):
         self.path = Path(path)
         self.overwrite = overwrite
+        self.fresh = fresh
+        self.flag = flag
         self._dirlock: DirectoryLock | None = None
 
     def __enter__(self) -> RunDirectory:
-        p = self.path
+        p, flag = self.path, self.flag
         if p.exists() and not p.is_dir():
-            raise ConfigError(f'--out: {p} exists and is not a directory')
+            raise ConfigError(f'{flag}: {p} exists and is not a directory')
         try:
             p.mkdir(parents=True, exist_ok=True)
         except OSError as err:
-            raise RunError(f'--out: cannot create {p}: {err.strerror}') from None
+            raise RunError(f'{flag}: cannot create {p}: {err.strerror}') from None
         if not os.access(p, os.W_OK):
-            raise RunError(f'--out: {p} is not writable')
+            raise RunError(f'{flag}: {p} is not writable')
         self._lock()
+        if not self.fresh:
+            return self
         try:
             existing = [q for q in p.iterdir() if q.name != LOCK]
             if existing and not self.overwrite:
                 raise ConfigError(
-                    f'--out: {p} already contains results; choose another '
+                    f'{flag}: {p} already contains results; choose another '
                     'directory or pass --overwrite'
                 )
-            for q in existing:  # --overwrite: nothing of an earlier run survives
-                if q.name in RUN_OUTPUTS or q.suffix in (
-                    '.sql',
-                    '.json',
-                    '.md',
-                    '.npz',
-                    '.png',
-                    '.tmp',
-                ):
-                    shutil.rmtree(q) if q.is_dir() else q.unlink()
+            for q in run_outputs(p):  # --overwrite: nothing of an earlier run survives
+                shutil.rmtree(q) if q.is_dir() else q.unlink()
         except OSError as err:
             self._unlock()
-            raise RunError(f'--out: cannot clear {p}: {err.strerror}') from None
+            raise RunError(f'{flag}: cannot clear {p}: {err.strerror}') from None
         except BaseException:
             self._unlock()
             raise
@@ -313,7 +337,7 @@ class RunDirectory:
         self._unlock()
 
     def _lock(self) -> None:
-        self._dirlock = DirectoryLock(self.path)
+        self._dirlock = DirectoryLock(self.path, flag=self.flag)
         self._dirlock.acquire()
 
     def _unlock(self) -> None:
@@ -343,11 +367,7 @@ def keep_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[str,
     def keep(src: str) -> str:
         if src not in copied:
             dst = inputs / f'{len(copied)}_{Path(src).name}'
-            try:
-                inputs.mkdir(exist_ok=True)
-                shutil.copyfile(src, dst)
-            except OSError as err:
-                raise RunError(f'cannot copy {src} into {inputs}: {err.strerror}') from None
+            copy_input(src, dst)
             copied[src] = f'inputs/{dst.name}'
         return copied[src]
 
@@ -362,11 +382,31 @@ def keep_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[str,
     for sc in out.get('scenario', []):
         if sc.get('road'):
             roads(sc['road'])
-    for axle in ('front', 'rear'):
+    for axle in ('front', 'rear'):  # a quarter car has no rear axle
+        if axle not in out['vehicle']:
+            continue
         mech = out['vehicle'][axle]['mechanism']
         if mech not in builtin_mechanisms():
             out['vehicle'][axle]['mechanism'] = keep(mech)
     return out
+
+
+def fingerprint(*parts: Any) -> str:
+    """A short digest of plain data (a record's study description and designs): a file
+    written beside a record carries it, and a report uses that file only if it matches
+    (never another run's file left in the directory)."""
+    text = json.dumps(parts, sort_keys=True, default=_json_default)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def copy_input(src: str | Path, dst: Path) -> Path:
+    """Copy the input file ``src`` to ``dst`` atomically (:func:`atomic_path`): reading it
+    is the input layer's (:func:`suspopt.inputs.read_bytes`: a ConfigError naming it),
+    writing it a RunError naming ``dst``."""
+    data = read_bytes(src, 'input file')
+    with atomic_path(dst) as tmp:
+        tmp.write_bytes(data)
+    return dst
 
 
 def resolve_inputs(directory: str | Path, config_dict: dict[str, Any]) -> dict[str, Any]:

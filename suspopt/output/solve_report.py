@@ -7,7 +7,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from suspopt.output.figures import plot_set, read_setting, road_figure, save_figure
-from suspopt.output.format import FIDELITY_LABELS, design_columns, fmt, term_columns, verdict
+from suspopt.output.format import (
+    FIDELITY_LABELS,
+    design_columns,
+    fmt,
+    record_scales_line,
+    term_columns,
+    verdict,
+)
 from suspopt.output.rundir import read_trajectory, write_text
 from suspopt.records.solve import SolveRecord
 
@@ -16,7 +23,6 @@ def run_markdown(res: SolveRecord) -> str:
     """The result of one ``suspopt optimize`` run, as Markdown."""
     ok = res.success
     d = res.design
-    J = (res.terms if ok else res.terms_at_stop) or {}
     names = list(d)
     lines = [
         f'**{res.fidelity}-fidelity {res.mode}** — '
@@ -38,14 +44,22 @@ def run_markdown(res: SolveRecord) -> str:
                 + ' | '.join(f'{design[n]:.0f}' for n in names)
                 + f' | {"—" if f is None else f"{f:.4f}"} |'
             )
-    if J:
+    rows: list[tuple[str, dict[str, float]]] = [
+        (sc.name, terms) for sc in res.scenarios for terms in [sc.reached[1]] if terms
+    ]
+    if rows:
+        several = len(res.scenarios) > 1
         if not ok:
             lines += ['', 'Objective terms where IPOPT stopped (NOT converged: not a result):']
+        cols = list(rows[0][1])
         lines += [
             '',
-            f'| {term_columns(list(J))} |',
-            '|' + '---|' * len(J),
-            '| ' + ' | '.join(fmt(J[t], 5) for t in J) + ' |',
+            ('| scenario ' if several else '') + f'| {term_columns(cols)} |',
+            ('|---' if several else '') + '|' + '---|' * len(cols),
+        ]
+        lines += [
+            (f'| {name} ' if several else '') + '| ' + ' | '.join(fmt(J[t], 5) for t in cols) + ' |'
+            for name, J in rows
         ]
     c = res.verification.comparison
     if c is not None:
@@ -58,12 +72,7 @@ def run_markdown(res: SolveRecord) -> str:
     elif res.verification.note:
         lines += ['', res.verification.note]
     if res.scales:
-        lines += [
-            '',
-            f'Normalization `{res.normalization}`: s = ('
-            + ', '.join(f'{k} {fmt(s, 6)}' for k, s in res.scales.items())
-            + ').',
-        ]
+        lines += ['', record_scales_line(res)]
     if res.message and not res.success:
         lines += ['', f'Message: {res.message}']
     return '\n'.join(lines) + '\n'

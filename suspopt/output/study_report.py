@@ -34,11 +34,12 @@ from suspopt.output.format import (
     design_columns,
     fmt,
     obj,
-    scales_line,
+    scenario_terms,
+    study_scales_line,
     term_columns,
     verdict,
 )
-from suspopt.output.rundir import read_trajectory, write_text
+from suspopt.output.rundir import fingerprint, read_trajectory, write_text
 from suspopt.output.solve_report import convergence_figure
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
@@ -58,7 +59,9 @@ def table_markdown(study: TwoStepStudy) -> str:
     if not study.verify:
         lines.append('**Not checked:** time-marching verification was skipped (--no-verify).')
     lines += ([''] if lines else []) + [
-        scales_line(study.terms, study.scales, study.normalization, study.weights),
+        study_scales_line(
+            study.config, study.terms, study.scales, study.normalization, study.weights
+        ),
         '',
         *_table4(study),
         '',
@@ -119,23 +122,25 @@ def _both_models_cell(e: SolveRecord | None) -> str:
 
 def _terms(study: TwoStepStudy) -> list[str]:
     terms = study.terms
+    several = len(study.scales) > 1
     lines = [
-        '**Objective terms J_k (collocation)**',
+        '**Objective terms J_k (collocation' + (', every scenario' if several else '') + ')**',
         '',
-        f'| design | model | {term_columns(terms)} |',
-        '|---|---|' + '---|' * len(terms),
+        '| design | model | ' + ('scenario | ' if several else '') + f'{term_columns(terms)} |',
+        '|---|---|' + ('---|' if several else '') + '---|' * len(terms),
     ]
     for name, label in DESIGN_LABELS.items():
         for fid in FIDELITIES:
             e = study.evaluation(fid, name)
             if e is None:
                 continue
-            J = e.terms
-            lines.append(
-                f'| {label} | {fid} | '
-                + ' | '.join(f'{J[t]:.5g}' if J else '—' for t in terms)
-                + (' |' if J else ' (NOT converged) |')
-            )
+            for scenario, J in scenario_terms(e):
+                lines.append(
+                    f'| {label} | {fid} | '
+                    + (f'{scenario} | ' if several else '')
+                    + ' | '.join(f'{J[t]:.5g}' if J else '—' for t in terms)
+                    + (' |' if J else ' (NOT converged) |')
+                )
     return lines
 
 
@@ -240,12 +245,8 @@ def render_study(out: Path, study: TwoStepStudy, file: str) -> list[Path]:
     jobs: list[Callable[[], Path]] = [functools.partial(road_figure, figs / 'road.png', setting)]
     jobs += _trajectory_jobs(figs, traj, setting)
     tm_path = out / 'time_marching.npz'
-    if tm_path.exists() and traj:
-        try:
-            with np.load(tm_path) as data:
-                marched = {k: np.asarray(data[k]) for k in data.files}
-        except Exception as err:  # numpy's and zipfile's errors of a damaged file
-            raise ConfigError(f'{tm_path}: damaged ({err})') from None
+    marched = _marched(tm_path, study) if tm_path.exists() and traj else None
+    if marched is not None:
         jobs.append(
             functools.partial(
                 verification_figure, figs / 'verification.png', traj, marched, setting
@@ -255,6 +256,29 @@ def render_study(out: Path, study: TwoStepStudy, file: str) -> list[Path]:
     if steps:
         jobs.append(functools.partial(convergence_figure, figs / 'convergence.png', steps))
     return [out / 'table.md'] + draw_figures(jobs)
+
+
+#: the key of ``time_marching.npz`` holding the fingerprint of its study
+FINGERPRINT = '_study'
+
+
+def study_fingerprint(study: TwoStepStudy) -> str:
+    """What ties ``time_marching.npz`` to its study: its description and designs."""
+    return fingerprint(study.config, study.designs)
+
+
+def _marched(path: Path, study: TwoStepStudy) -> dict[str, np.ndarray] | None:
+    """The time-marched signals of ``path``, if they are this study's (None if another
+    run's file was left in the directory: never drawn as this one's)."""
+    try:
+        with np.load(path) as data:
+            marched = {k: np.asarray(data[k]) for k in data.files}
+    except Exception as err:  # numpy's and zipfile's errors of a damaged file
+        raise ConfigError(f'{path}: damaged ({err})') from None
+    mark = marched.pop(FINGERPRINT, None)
+    if mark is None or str(mark) != study_fingerprint(study):
+        return None
+    return marched
 
 
 def _trajectories(out: Path, study: TwoStepStudy) -> dict[tuple[str, str], Trajectory]:

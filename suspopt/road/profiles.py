@@ -27,6 +27,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import functools
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
@@ -35,6 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from suspopt.errors import ConfigError
+from suspopt.inputs import read_text
 
 
 class RoadProfile:
@@ -492,18 +494,16 @@ def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     A byte-order mark (spreadsheets write one) is dropped. The first row may be a header,
     a row of text only: a first row with a number in it is data, and must be two
     numbers."""
+    text = read_text(path, 'road CSV', 'CSV')  # suspopt.inputs: one line naming the file
     path = Path(path)
     try:
-        with path.open(newline='', encoding='utf-8-sig') as fh:
-            rows = [
-                (i + 1, r)
-                for i, r in enumerate(csv.reader(fh))
-                if r and any(c.strip() for c in r) and not r[0].lstrip().startswith('#')
-            ]
-    except OSError as err:
-        raise ConfigError(f'cannot read road CSV {path}: {err.strerror}') from None
-    except (UnicodeDecodeError, csv.Error):
-        raise ConfigError(f'{path}: not a text (UTF-8) CSV file') from None
+        rows = [
+            (i + 1, r)
+            for i, r in enumerate(csv.reader(io.StringIO(text, newline='')))
+            if r and any(c.strip() for c in r) and not r[0].lstrip().startswith('#')
+        ]
+    except csv.Error as err:
+        raise ConfigError(f'{path}: not valid CSV: {err}') from None
     data = []
     for k, (line, row) in enumerate(rows):
         cells = [_number(c) for c in row[:2]]

@@ -8,9 +8,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from suspopt.errors import ConfigError
 from suspopt.models.design import DESIGN_UNITS, design_kind
 from suspopt.road import PROFILES, TWO_TRACKS, CSVRoad, make_road, profile_fields
+from suspopt.road.profiles import MAX_FEATURE_HEIGHT
 from suspopt.spec.schema import (
     AGGREGATES,
     DESIGN_LIMITS,
@@ -290,7 +293,10 @@ def _numerics_checks(cfg: StudyConfig) -> list[str]:
     if op.options:  # checked on IPOPT itself (IPOPT is imported only when needed)
         from suspopt.driver import ipopt_option_problems
 
-        errs.extend(f'optimizer.options.{p}' for p in ipopt_option_problems(op.options))
+        errs.extend(
+            f'optimizer.options{p}' if p.startswith(': ') else f'optimizer.options.{p}'
+            for p in ipopt_option_problems(op.options)
+        )
     if tr.initial_guess not in ('auto', 'simulate', 'zero'):
         errs.add(
             'transcription.initial_guess',
@@ -312,11 +318,19 @@ def _numerics_checks(cfg: StudyConfig) -> list[str]:
 def _scenario_checks(cfg: StudyConfig, n_tracks: int) -> list[str]:
     errs = Problems()
     names = set()
+    worst_case = cfg.objective.aggregate == 'max' and len(cfg.scenario) > 1
     for i, sc in enumerate(cfg.scenario):
         key = f'scenario[{i}]'
-        if sc.name in names:
+        if sc.name and sc.name in names:
             errs.add(f'{key}.name', f'duplicate scenario name {sc.name!r}')
         names.add(sc.name)
+        if worst_case and math.isfinite(sc.weight) and sc.weight != 1.0:
+            errs.add(
+                f'{key}.weight',
+                f'{sc.weight:g}: the worst case (objective.aggregate = "max") minimizes '
+                'max_s f_s and takes no scenario weights; remove them, or use aggregate = '
+                '"sum" (Σ_s w_s f_s)',
+            )
         for fld, limits in (('speed', SPEED_RANGE), ('horizon', HORIZON_RANGE)):
             val = getattr(sc, fld)
             if not (math.isfinite(val) and val >= 0.0):
@@ -367,6 +381,10 @@ def _size_checks(cfg: StudyConfig) -> list[str]:
                 )
             )
         sizes.append((nlp_size(cfg, sc), sc, key))
+    if not errs:  # the grid can represent the motion: is the motion plausible?
+        from suspopt.spec.modes import mode_problems
+
+        errs.extend(mode_problems(cfg))
     total = sum(n for n, _, _ in sizes)
     if total > MAX_NLP_VARIABLES:
         n, sc, key = max(sizes, key=lambda x: x[0])
@@ -442,11 +460,33 @@ def _road_checks(road: dict[str, Any], where: str, length: float, n_tracks: int)
             params[k] = parse_value(float, val, f'{where}.{k}', sub, {})
         else:
             params[k] = parse_value(str, val, f'{where}.{k}', sub, {})
+    for k, val in params.items():  # a road's integers are seeds: numpy takes >= 0 only
+        if isinstance(allowed[k], int) and not isinstance(allowed[k], bool) and val < 0:
+            sub.add(f'{where}.{k}', f'must be >= 0 (a seed of the random phases), got {val}')
     if kind == 'csv' and not road.get('file'):
         sub.add(f'{where}.file', 'missing value (path of a distance,height CSV)')
     if sub:
         return list(sub)
-    return make_road(typed_road({'profile': kind, **params})).validate(length, where)
+    profile = make_road(typed_road({'profile': kind, **params}))
+    problems = profile.validate(length, where)
+    if not problems and isinstance(profile, CSVRoad):
+        problems = _csv_height_problems(profile, where)
+    return problems
+
+
+def _csv_height_problems(road: CSVRoad, where: str) -> list[str]:
+    """A measured road's heights are relative to the car's static position (the zero
+    initial state): within :data:`~suspopt.road.profiles.MAX_FEATURE_HEIGHT` of it, in
+    metres (an elevation above sea level, or millimetres typed as metres, is refused)."""
+    s, h = road._data()
+    worst = int(np.argmax(np.abs(h)))
+    if abs(h[worst]) > MAX_FEATURE_HEIGHT:
+        return [
+            f'{where}.file: {road.file}: height {h[worst]:g} m at s = {s[worst]:g} m is '
+            f"beyond a road surface (at most {MAX_FEATURE_HEIGHT:g} m from the car's "
+            'static position; heights are in metres, relative to the start, not elevations)'
+        ]
+    return []
 
 
 #: a wheel rate below this fraction of the spring rate at the reference pose is zero:
@@ -468,7 +508,7 @@ def _mechanism_standing(name: str) -> tuple[float, float, float, str] | list[str
 
     try:
         memo = (name, mechanism_path(name).read_bytes())
-    except OSError:  # load_mechanism names the problem
+    except (OSError, ValueError):  # load_mechanism names the problem
         memo = None
     if memo in _STANDING:
         return _STANDING[memo]

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from suspopt.errors import ConfigError
+from suspopt.inputs import read_toml
 from suspopt.models.design import design_kind
 from suspopt.models.metrics import term_groups
 from suspopt.road import TWO_TRACKS
@@ -312,20 +312,11 @@ def _resolve_paths(cfg: StudyConfig, base_dir: str | Path | None) -> StudyConfig
 
 
 def load_config(path: str | Path) -> StudyConfig:
-    """Read and validate a study TOML file. Raises :class:`ConfigError`."""
-    path = Path(path)
+    """Read and validate a study TOML file (:func:`suspopt.inputs.read_toml`: one line
+    naming the file for a missing, unreadable, non-UTF-8 or invalid one). Raises
+    :class:`ConfigError`."""
+    data = read_toml(path, 'config file')
     try:
-        with path.open('rb') as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f'config file not found: {path}') from None
-    except IsADirectoryError:
-        raise ConfigError(f'config file {path} is a directory') from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise ConfigError(f'{path}: not valid TOML: {err}') from None
-    except OSError as err:
-        raise ConfigError(f'cannot read config file {path}: {err.strerror}') from None
-    try:
-        return config_from_dict(data, base_dir=path.parent)
+        return config_from_dict(data, base_dir=Path(path).parent)
     except ConfigError as err:
         raise ConfigError([f'{path}: {p}' for p in err.problems]) from None

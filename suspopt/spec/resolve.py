@@ -169,9 +169,10 @@ def scenarios(config: StudyConfig) -> tuple[Scenario, ...]:
     if not config.scenario:
         return (_with_grid(config, base, config.transcription.segments),)
     out = []
+    names = scenario_names(config)
     for i, sc in enumerate(config.scenario):
         s = Scenario(
-            name=sc.name or f's{i}',
+            name=names[i],
             weight=sc.weight,
             speed=sc.speed or base.speed,
             horizon=sc.horizon or base.horizon,
@@ -181,6 +182,28 @@ def scenarios(config: StudyConfig) -> tuple[Scenario, ...]:
         )
         out.append(_with_grid(config, s, sc.segments or config.transcription.segments))
     return tuple(out)
+
+
+def scenario_names(config: StudyConfig) -> list[str]:
+    """Every scenario's name: its own, or ``s<i>`` for one without (``s<i>_2`` ... where a
+    given name took it): unique by construction, so a table row or a figure's curve never
+    shows another scenario's data under its label."""
+    return unique_names([sc.name for sc in config.scenario])
+
+
+def unique_names(given: list[str]) -> list[str]:
+    """Names for scenarios whose given names are ``given`` ('' for none): see
+    :func:`scenario_names`."""
+    taken = {n for n in given if n}
+    out: list[str] = []
+    for i, name in enumerate(given):
+        k = 2
+        if not name:
+            name = f's{i}'
+            while name in taken or name in out:
+                name, k = f's{i}_{k}', k + 1
+        out.append(name)
+    return out
 
 
 def _with_grid(config: StudyConfig, scenario: Scenario, segments: Any) -> Scenario:

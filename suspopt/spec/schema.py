@@ -441,8 +441,13 @@ class StudyConfig:
         return make_road(self.road)
 
     def to_dict(self) -> dict[str, Any]:
-        """A plain (JSON/TOML-able) dictionary; :func:`config_from_dict` inverts it."""
-        return _to_plain(self)
+        """A plain (JSON/TOML-able) dictionary; :func:`config_from_dict` inverts it (a
+        quarter car's has no keys of the corners and motions it does not have)."""
+        out = _to_plain(self)
+        if self.vehicle.model == 'quarter_car':
+            out['vehicle'].pop('rear', None)
+            out['vehicle'].pop('chassis_pitch_inertia', None)
+        return out
 
     def replace(self, **changes: Any) -> StudyConfig:
         return dataclasses.replace(self, **changes)

@@ -30,7 +30,6 @@ and ``mixed:<topology>``; a cell is ``cells["<design>|<model>"]``
 from __future__ import annotations
 
 import re
-import shutil
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -38,9 +37,10 @@ from pathlib import Path
 
 import numpy as np
 
-from suspopt.errors import ConfigError, ModelError, RunError
+from suspopt.errors import ConfigError, ModelError
 from suspopt.models.design import SPRING, design_id
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, copy_input, write_record
 from suspopt.records.compare import (
     LOW,
     CompareStudy,
@@ -114,15 +114,27 @@ def mechanism_label(mechanism: str) -> str:
     return mechanism if mechanism in builtin_mechanisms() else Path(mechanism).stem
 
 
+def mechanism_labels(mechanisms: list[str]) -> dict[str, str]:
+    """Every mechanism's label, unique by construction: a built-in name, or a file's stem
+    (``strut``); a second mechanism of the same label (another folder's ``strut.toml``,
+    a file named like a built-in) is numbered (``strut-2``). Every table row, figure
+    curve and dictionary of a study is keyed by these, never by a bare stem."""
+    labels: dict[str, str] = {}
+    for m in dict.fromkeys(mechanisms):
+        base = label = mechanism_label(m)
+        k = 2
+        while label in labels.values():
+            label, k = f'{base}-{k}', k + 1
+        labels[m] = label
+    return labels
+
+
 def topology_labels(topologies: list[tuple[str, str]]) -> list[str]:
     """Unique, file-name-safe labels: ``macpherson``, ``macpherson+double_wishbone``."""
     labels, seen = [], set()
+    names = mechanism_labels([m for t in topologies for m in t])
     for front, rear in topologies:
-        lab = (
-            mechanism_label(front)
-            if front == rear
-            else f'{mechanism_label(front)}+{mechanism_label(rear)}'
-        )
+        lab = names[front] if front == rear else f'{names[front]}+{names[rear]}'
         lab = _safe(lab)
         base, i = lab, 2
         while lab in seen:
@@ -207,11 +219,7 @@ def _copy_mechanisms(out: Path, topologies: list[tuple[str, str]]) -> dict[str, 
             copies[src] = src
             continue
         dst = out / 'inputs' / f'mechanism_{len(copies)}_{Path(src).name}'
-        try:
-            dst.parent.mkdir(exist_ok=True)
-            shutil.copyfile(src, dst)
-        except OSError as err:
-            raise RunError(f'cannot copy {src} into {dst.parent}: {err.strerror}') from None
+        copy_input(src, dst)
         copies[src] = f'inputs/{dst.name}'
     return copies
 
@@ -275,19 +283,20 @@ class CompareRun:
         self.models: dict[str, tuple[str, StudyConfig]] = {LOW: ('low', config)}
         self.models.update({model_key(lab): ('mixed', cfgs[lab]) for lab in self.labels})
         copies = _copy_mechanisms(out, topologies)
+        names = mechanism_labels([m for t in topologies for m in t])
         self.scales = resolve_scales(config)  # the low-fidelity model's: one for all
         self.problems: dict[str, VehicleProblem] = {}
         self.low_guess: Guess = 'auto'
         self.study = CompareStudy(
-            config=keep_inputs(out, config.to_dict()),
+            config=keep_study_inputs(out, config),
             vehicle_model=config.vehicle.model,
             topologies=tuple(
                 Topology(
                     label=lab,
                     front=copies[f],
                     rear=copies[r],
-                    front_label=mechanism_label(f),
-                    rear_label=mechanism_label(r),
+                    front_label=names[f],
+                    rear_label=names[r],
                     model=model_key(lab),
                     optimum=design_key(lab),
                     recorder=f'mixed_{lab}.sql',
@@ -310,9 +319,7 @@ class CompareRun:
             designs={'initial': config.design.initial()},
         )
         self.mechanism_files = {
-            mechanism_label(m): m if copies[m] == m else str(out / copies[m])
-            for t in topologies
-            for m in t
+            names[m]: m if copies[m] == m else str(out / copies[m]) for t in topologies for m in t
         }
 
     def save(self) -> None:

@@ -18,7 +18,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.coupling import (
     COUPLING_DESIGNS,
     COUPLING_MODEL_LABELS,
@@ -27,7 +28,14 @@ from suspopt.records.coupling import (
 )
 from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
-from suspopt.studies.run import Progress, StepFailed, evaluate, optimize, problem_stats
+from suspopt.studies.run import (
+    Interrupted,
+    Progress,
+    StepFailed,
+    evaluate,
+    optimize,
+    problem_stats,
+)
 from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
 
@@ -78,7 +86,7 @@ class CouplingRun:
         self.configs = {m: model_config(config, m) for m in MODELS}
         self.problems: dict[str, VehicleProblem] = {}
         self.study = CouplingStudy(
-            config=keep_inputs(out, config.to_dict()),
+            config=keep_study_inputs(out, config),
             scales=tuple(self.scales),
             terms=tuple(config.terms()),
             design_names=tuple(config.design_names()),
@@ -121,14 +129,20 @@ class CouplingRun:
             return done
         label = COUPLING_MODEL_LABELS[model]
         self.say(f'evaluating the {design.replace("_", " ")} in the {label} model')
-        rec = evaluate(
-            self.configs[model],
-            MODELS[model][0],
-            self.study.designs[design],
-            scales=self.scales,
-            problem=self.problems[model],
-            verify=self.verify,
-        )
+        try:
+            rec = evaluate(
+                self.configs[model],
+                MODELS[model][0],
+                self.study.designs[design],
+                scales=self.scales,
+                problem=self.problems[model],
+                verify=self.verify,
+            )
+        except Interrupted as stop:  # a converged evaluation is kept before stopping
+            if stop.result is not None and stop.result.success:
+                self.study.evaluations[model][design] = stop.result
+                self.save()
+            raise
         self.study.evaluations[model][design] = rec
         self.save()
         return rec
@@ -139,15 +153,23 @@ class CouplingRun:
         self._cell(model, start)
         label = COUPLING_MODEL_LABELS[model]
         self.say(f'optimizing the {label} model from the {start.replace("_", " ")}')
-        step = optimize(
-            self.configs[model],
-            fid,
-            start=self.study.designs[start],
-            scales=self.scales,
-            problem=self.problems[model],
-            guess='keep',
-            verify=self.verify,
-        )
+        try:
+            step = optimize(
+                self.configs[model],
+                fid,
+                start=self.study.designs[start],
+                scales=self.scales,
+                problem=self.problems[model],
+                guess='keep',
+                verify=self.verify,
+            )
+        except Interrupted as stop:  # a converged step is kept (not checked) before stopping
+            if stop.result is not None and stop.result.success:
+                self.study.steps[model] = stop.result
+                self.study.designs[f'{model}_optimum'] = stop.result.design
+                self.study.evaluations[model][f'{model}_optimum'] = stop.result
+                self.save()
+            raise
         self.study.steps[model] = step
         self.save()
         if not step.success:

@@ -21,8 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from suspopt.errors import ConfigError
 from suspopt.models.metrics import METRICS, term_kind
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.pareto import ParetoFront, ParetoInitial, ParetoPoint
 from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
@@ -112,6 +114,12 @@ def run_pareto(
     Returns the front."""
     if points < 2:
         raise ValueError(f'points must be >= 2, got {points}')
+    if len(config.scenarios()) > 1:  # C and R are one road's: a front of several is not
+        raise ConfigError(
+            'scenario: a Pareto front is traced on one load case (its comfort and road '
+            f'holding terms); this study has {len(config.scenarios())} [[scenario]] tables '
+            '(robust design weighs several)'
+        )
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
     return ParetoRun(config, out, fidelity, progress, log, verify).run(points)
 
@@ -134,7 +142,7 @@ class ParetoRun:
         self.t0 = time.perf_counter()
         self.scales = resolve_scales(config)
         self.front = ParetoFront(
-            config=keep_inputs(out, config.to_dict()),
+            config=keep_study_inputs(out, config),
             fidelity=fidelity,
             scales=tuple(self.scales),
             terms=tuple(config.terms()),
@@ -178,15 +186,24 @@ class ParetoRun:
     def _initial(self, problem: VehicleProblem) -> ParetoInitial:
         """The initial design in the front's model (not converged: no reference point)."""
         start = self.config.design.initial()
-        init = evaluate(
-            self.config,
-            self.fidelity,
-            start,
-            scales=self.scales,
-            problem=problem,
-            label='initial',
-            verify=False,
-        )
+        try:
+            init = evaluate(
+                self.config,
+                self.fidelity,
+                start,
+                scales=self.scales,
+                problem=problem,
+                label='initial',
+                verify=False,
+            )
+        except Interrupted as stop:  # a converged evaluation is kept before stopping
+            if stop.result is not None and stop.result.success:
+                self.front.initial = self._initial_of(start, stop.result)
+                self.save()
+            raise
+        return self._initial_of(start, init)
+
+    def _initial_of(self, start: dict[str, float], init: SolveRecord) -> ParetoInitial:
         J = init.terms
         C, R = comfort_and_road_holding(self.config, J, self.scales[0]) if J else (None, None)
         return ParetoInitial(design=start, success=init.success, terms=J, comfort=C, road_holding=R)

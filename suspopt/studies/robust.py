@@ -21,11 +21,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 from suspopt.errors import ConfigError
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.robust import ROBUST, CrossEvaluation, RobustStudy
 from suspopt.records.solve import SolveRecord
 from suspopt.spec.schema import StudyConfig
-from suspopt.studies.run import Progress, optimize
+from suspopt.studies.run import Interrupted, Progress, optimize
 from suspopt.transcription.problem import Scales
 from suspopt.verification.scales import resolve_scales
 from suspopt.verification.verify import combine, march
@@ -68,13 +69,19 @@ def run_robust(
             'scenario: robust design needs at least two [[scenario]] tables in '
             f'the study file, got {len(config.scenario)}'
         )
+    for i, sc in enumerate(config.scenarios()):
+        if sc.name == ROBUST:  # the label of the robust optimum: it would be overwritten
+            raise ConfigError(
+                f'scenario[{i}].name: {ROBUST!r} names the robust optimum in the results; '
+                'name the scenario otherwise'
+            )
     out = out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
     say = log or (lambda msg: None)
     t0 = time.perf_counter()
     scales = resolve_scales(config)
     scenarios = config.scenarios()
     data = RobustStudy(
-        config=keep_inputs(out, config.to_dict()),
+        config=keep_study_inputs(out, config),
         fidelity=fidelity,
         scenarios=tuple(sc.name for sc in scenarios),
         weights=tuple(sc.weight for sc in scenarios),
@@ -83,18 +90,25 @@ def run_robust(
         design_names=tuple(config.design_names()),
     )
     write_record(out, data)
+
+    def solve(label: str, cfg: StudyConfig, own: Scales) -> None:
+        """One optimum, kept and written; interrupted, kept if IPOPT had converged."""
+        try:
+            data.optima[label] = optimize(
+                cfg, fidelity, scales=own, progress=progress, verify=verify
+            )
+        except Interrupted as stop:
+            if stop.result is not None and stop.result.success:
+                data.optima[label] = stop.result
+                write_record(out, data)
+            raise
+        write_record(out, data)
+
     say(f'robust optimum over {len(scenarios)} scenarios ({config.objective.aggregate}), one NLP')
-    data.optima[ROBUST] = optimize(
-        config, fidelity, scales=scales, progress=progress, verify=verify
-    )
-    write_record(out, data)
+    solve(ROBUST, config, scales)
     for i, name in enumerate(data.scenarios):
         say(f'scenario {name!r} alone')
-        one = single_scenario(config, i)
-        data.optima[name] = optimize(
-            one, fidelity, scales=(scales[i],), progress=progress, verify=verify
-        )
-        write_record(out, data)
+        solve(name, single_scenario(config, i), (scales[i],))
     say('every optimum on every scenario, by time marching')
     for label, res in data.optima.items():
         if res.success:

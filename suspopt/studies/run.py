@@ -19,6 +19,7 @@ by side in separate processes.
 from __future__ import annotations
 
 import functools
+import sqlite3
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -26,9 +27,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from suspopt import interrupts
 from suspopt.driver import IterationInfo
-from suspopt.errors import ModelError
-from suspopt.output.rundir import RunDirectory, keep_inputs, write_record
+from suspopt.errors import ModelError, RunError
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.solve import (
     NlpSize,
     ProblemStats,
@@ -107,22 +110,44 @@ def solve_step(
     optimize: bool,
     guess: Guess = 'auto',
     label: str | None = None,
+    keep: Callable[[SolveRecord], SolveRecord] | None = None,
 ) -> SolveRecord:
     """Solve ``problem`` from ``design`` with ``config``'s weights: optimize it, or only
-    solve the collocation equations; record the solution as case ``label``. The record's
-    verification is pending (an interrupted solve's: interrupted)."""
+    solve the collocation equations; record the solution as case ``label`` and pass the
+    record to ``keep`` (which writes it). The record's verification is pending (an
+    interrupted solve's: interrupted).
+
+    From the solve to ``keep`` a first Ctrl-C or SIGTERM is held
+    (:func:`suspopt.interrupts.hold`): IPOPT stops at once, and whatever it
+    returned — a converged result included — is recorded and kept before the run stops;
+    the record says ``interrupted``. Before the solve (the starting trajectory) a signal
+    stops at once: nothing is computed yet."""
     problem.set_weights(config.objective.weights)
     problem.set_design(design)
     if guess == 'auto':
         guess = initial_guess(config, problem.fidelity, design)
     if guess != 'keep':
         problem.set_initial_guess(guess)  # type: ignore[arg-type]
-    record = problem.solve(optimize=optimize)
-    if label:
-        problem.record(label)
-    if record.interrupted:
-        record = record.with_verification(Verification.interrupted())
+    with interrupts.hold(raise_on_exit=False):
+        record = problem.solve(optimize=optimize)
+        interrupts.stage('solve:returned', success=record.success, design=record.design)
+        if label:
+            record_case(problem, label)
+        if record.interrupted or interrupts.requested():
+            record = replace(record, interrupted=True).with_verification(Verification.interrupted())
+        if keep is not None:
+            record = keep(record)
     return record
+
+
+def record_case(problem: VehicleProblem, label: str) -> None:
+    """``problem``'s solution as case ``label`` in its case recorder; a recorder that
+    cannot be written (a full disk, an SQLite error) is a RunError naming it."""
+    try:
+        problem.record(label)
+    except sqlite3.Error as err:
+        raise RunError(f'cannot write the case recorder {problem.recorder_path}: {err}') from None
+    interrupts.stage(f'record:{label}')
 
 
 def verified(
@@ -135,6 +160,7 @@ def verified(
     """``record`` verified by time marching now (``enabled`` false: skipped, and said so)."""
     if record.success and not enabled:
         return record.with_verification(Verification.skipped())
+    interrupts.stage('verify')
     return verify(config, record, scales, modules=problem.modules or None)[0]
 
 
@@ -169,6 +195,7 @@ def built(
     if problem is not None:
         yield problem
         return
+    interrupts.stage('build')
     own = VehicleProblem(config, fidelity, scales, **build)
     try:
         yield own
@@ -208,13 +235,19 @@ def optimize(
     start = dict(config.design.initial() if start is None else start)
     scales = resolve_scales(config) if scales is None else scales
     out = _out_path(out_dir)
-    config_dict = config.to_dict() if out is None else keep_inputs(out, config.to_dict())
+    config_dict = config.to_dict() if out is None else keep_study_inputs(out, config)
     save = functools.partial(_save_run, out, config_dict)
     recorder = None if out is None else out / 'cases.sql'
     with built(config, fidelity, scales, problem, progress=progress, recorder=recorder) as vp:
         try:
             rec = solve_step(
-                vp, config, start, optimize=True, guess=guess, label=label or f'{fidelity}_optimum'
+                vp,
+                config,
+                start,
+                optimize=True,
+                guess=guess,
+                label=label or f'{fidelity}_optimum',
+                keep=lambda r: save(replace(r, wall_time_s=time.perf_counter() - t0)),
             )
         except ModelError as err:  # what failed, where, is part of the results
             failed = model_failure(
@@ -227,7 +260,6 @@ def optimize(
             )
             save(failed)
             raise
-        rec = save(replace(rec, wall_time_s=time.perf_counter() - t0))
         if rec.interrupted:
             raise Interrupted(rec)
         try:

@@ -12,7 +12,9 @@ from typing import Any, cast
 import numpy as np
 
 from suspopt.driver import IterationInfo
-from suspopt.output.rundir import RunDirectory, atomic_path, keep_inputs, write_record
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, atomic_path, write_record
+from suspopt.output.study_report import FINGERPRINT, study_fingerprint
 from suspopt.records.solve import SolveRecord
 from suspopt.records.twostep import STEP_RESULT, TwoStepStudy, evaluation_key
 from suspopt.spec import StudyConfig
@@ -79,7 +81,7 @@ class TwoStepRun:
         self.t_start = time.perf_counter()
         self.scales = resolve_scales(config)
         self.study = TwoStepStudy(
-            config=keep_inputs(out, config.to_dict()),
+            config=keep_study_inputs(out, config),
             scales=tuple(self.scales),
             terms=tuple(config.terms()),
             design_names=tuple(config.design_names()),
@@ -244,9 +246,10 @@ class TwoStepRun:
         if self.verifier.pending():
             self.say('waiting for the time-marching verifications')
         self._collect(block=True)
-        if self.arrays:
+        if self.arrays:  # tied to this study: a report never draws another run's
+            arrays = {**self.arrays, FINGERPRINT: np.array(study_fingerprint(study))}
             with atomic_path(self.out / 'time_marching.npz') as tmp, open(tmp, 'wb') as fh:
-                np.savez_compressed(fh, **cast(dict[str, Any], self.arrays))
+                np.savez_compressed(fh, **cast(dict[str, Any], arrays))
         unverified = [k for k, e in study.evaluations.items() if e.verified is False]
         if unverified:
             study.warnings.append(_not_verified_warning(study, unverified))

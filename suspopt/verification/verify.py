@@ -101,10 +101,18 @@ def march(
     return out
 
 
-def _rel_diff(coll: float, tm: float) -> float:
-    if tm != 0.0:
-        return abs(coll / tm - 1.0)
-    return 0.0 if coll == 0.0 else math.inf
+#: a term's difference is relative to its time-marched value, but never to less than
+#: this fraction of its scale s_k: a term that is numerically zero (exactly 0 by time
+#: marching, 1e-30 by collocation) contributes nothing to f and verifies
+VERIFY_FLOOR = 1e-6
+
+
+def _rel_diff(coll: float, tm: float, floor: float = 0.0) -> float:
+    """|coll - tm| relative to |tm|, or to ``floor`` where |tm| is below it."""
+    ref = max(abs(tm), floor)
+    if ref > 0.0:
+        return abs(coll - tm) / ref
+    return 0.0 if coll == tm else math.inf
 
 
 def time_marching_check(
@@ -119,13 +127,18 @@ def time_marching_check(
 ) -> tuple[Comparison, list[Trajectory]]:
     """Time-march ``design`` in every scenario and compare with the collocation's
     ``terms``: verified if every term with a nonzero weight agrees within
-    :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories come too."""
+    :data:`VERIFY_TOLERANCE` (relative to its time-marched value, at least
+    :data:`VERIFY_FLOOR` of its scale). With ``keep``, the trajectories come too."""
     t0 = time.perf_counter()
     weights = config.objective.weights
     marched = march(config, fidelity, design, scales, modules=modules, keep=keep)
     scenarios = []
-    for m, coll in zip(marched, terms):
-        diffs = {t: _rel_diff(coll[t], m.terms[t]) for t in config.terms() if weights[t] > 0.0}
+    for m, coll, s in zip(marched, terms, scales):
+        diffs = {
+            t: _rel_diff(coll[t], m.terms[t], VERIFY_FLOOR * abs(s.get(t, 0.0)))
+            for t in config.terms()
+            if weights[t] > 0.0
+        }
         worst = max(diffs, key=lambda t: diffs[t])
         scenarios.append(
             ScenarioComparison(

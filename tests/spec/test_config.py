@@ -78,7 +78,7 @@ BAD_INPUTS = [
     ('[road]\nprofile = "iso8608"\nroad_class = "Z"', 'road.road_class', 'must be one of'),
     ('[road]\nprofile = "bump"\nhieght = 0.1', 'road.hieght', "did you mean 'height'"),
     ('[road]\nprofile = "csv"', 'road.file', 'missing value'),
-    ('[road]\nprofile = "csv"\nfile = "no_such_road.csv"', 'road.file', 'cannot read'),
+    ('[road]\nprofile = "csv"\nfile = "no_such_road.csv"', 'road.file', 'road CSV not found'),
     (
         '[vehicle.front]\nmechanism = "no_such_mechanism.toml"',
         'vehicle.front.mechanism',
@@ -147,7 +147,7 @@ def test_road_csv_that_is_not_text(tmp_path, capsys):
     path = _write(tmp_path, '[road]\nprofile = "csv"\nfile = "road.csv"')
     assert main(['evaluate', '--fidelity', 'low', '--config', str(path)]) == 2
     stderr = capsys.readouterr().err
-    assert 'road.file' in stderr and 'not a text (UTF-8) CSV' in stderr
+    assert 'road.file' in stderr and 'not valid CSV: not a text (UTF-8) file' in stderr
 
 
 def test_unreadable_and_invalid_files(tmp_path, capsys):
@@ -228,7 +228,7 @@ def test_bad_command_line_values(capsys):
     assert main(['optimize', '--fidelity', 'low', '--start', '6e4,1e4,1e3,1e3']) == 2
     assert '--start: k_S1 = 60000 is outside [10000, 50000]' in capsys.readouterr().err
     assert main(['evaluate', '--fidelity', 'low', '--segments', '0']) == 2
-    assert 'transcription.segments' in capsys.readouterr().err
+    assert '--segments: must be >= 1' in capsys.readouterr().err
 
 
 def test_csv_road_reproduces_two_bumps(tmp_path):
