@@ -109,9 +109,13 @@ class NodewiseBlackBox(om.ExplicitComponent):
     def _curves(self) -> tuple[str, ...]:
         """The names of the springs' curve parameters that are inputs (beside ``k_S``,
         ``c_S``): every one, or those of the option ``curve_settings``."""
-        names = curve_setting_names(self.options['modules'])
-        wanted = self.options['curve_settings']
-        return tuple(n for n in names if wanted is None or n in wanted)
+        modules, wanted = self.options['modules'], self.options['curve_settings']
+        memo = self.__dict__.get('_curves_memo')
+        if memo is None or memo[0] is not modules or memo[1] != wanted:
+            names = curve_setting_names(modules)
+            memo = (modules, wanted, tuple(n for n in names if wanted is None or n in wanted))
+            self.__dict__['_curves_memo'] = memo  # a function of the options: every call
+        return memo[2]
 
     @property
     def _rates(self) -> tuple[str, ...]:
