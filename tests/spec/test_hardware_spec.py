@@ -180,7 +180,10 @@ def test_a_stop_is_checked_against_the_travel_constraint():
     config_from_dict({'vehicle': {'front': front}})  # the mechanism's travel: 0.1 m
     with pytest.raises(ConfigError, match='larger than the bump travel 0.04 m'):
         config_from_dict(
-            {'vehicle': {'front': front}, 'constraints': {'travel': {'bump': 0.04, 'rebound': 0.06}}}
+            {
+                'vehicle': {'front': front},
+                'constraints': {'travel': {'bump': 0.04, 'rebound': 0.06}},
+            }
         )
 
 
