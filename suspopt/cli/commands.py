@@ -16,6 +16,7 @@ from suspopt.cli.exits import FAILED, NOT_VERIFIED, OK
 from suspopt.cli.inputs import Printer, parse_design, start_design, study_config
 from suspopt.errors import ConfigError
 from suspopt.records.solve import SolveRecord
+from suspopt.spec.load import load_config
 
 
 def _error(msg: str) -> None:
@@ -362,6 +363,35 @@ def _travel(text: str | None) -> tuple[float, float] | None:
     return travel[0], travel[1]
 
 
+def _study_axle(args: argparse.Namespace) -> tuple[str, object, float | None]:
+    """With ``--study``: the axle's mechanism (``args.mechanism`` if given), that mechanism
+    with the study's hardware curves on its spring (or its name, linear), and the
+    axle's spring rate (the design's initial ``k_S``; None for a spring table)."""
+    from suspopt.models.design import design_id
+    from suspopt.spec.hardware import study_units
+
+    cfg = load_config(args.study)
+    if args.axle == 'rear' and cfg.vehicle.model == 'quarter_car':
+        raise ConfigError('--axle: a quarter car has one corner (front)')
+    a = ('front', 'rear').index(args.axle)
+    name = args.mechanism or cfg.vehicle.axles[a].mechanism
+    rate = next(
+        (
+            x
+            for n, x in cfg.design.initial().items()
+            if design_id(n).kind.symbol == 'k_S' and design_id(n).axle == a
+        ),
+        None,
+    )
+    unit = study_units(cfg)[a]
+    if unit is None:
+        return name, name, rate
+    from suspopt.multibody.mechanism import load_mechanism
+    from suspopt.transcription.vehicle import with_hardware
+
+    return name, with_hardware(load_mechanism(name, suspension=True), unit), rate
+
+
 def kinematics(args: argparse.Namespace) -> int:
     """Kinematic curves of a suspension mechanism: table on stdout, figure and table in --out."""
     from suspopt.multibody.kinematics import curves_table, kinematic_curves, plot_curves
@@ -372,13 +402,23 @@ def kinematics(args: argparse.Namespace) -> int:
         raise ConfigError(f'--k: the spring rate must be finite and > 0 N/m, got {args.k:g}')
     if args.points < 2:
         raise ConfigError(f'--points: need at least 2, got {args.points}')
-    curves = kinematic_curves(args.mechanism, travel, args.k, args.points)
+    if args.centre_line is not None and not math.isfinite(args.centre_line):
+        raise ConfigError(f'--centre-line: must be a finite number [m], got {args.centre_line}')
+    name, mechanism, k = args.mechanism, args.mechanism, args.k
+    if args.study:
+        name, mechanism, rate = _study_axle(args)
+        k = rate if k is None else k
+    elif name is None:
+        raise ConfigError('kinematics: give a MECHANISM, or --study FILE [--axle front|rear]')
+    curves = kinematic_curves(mechanism, travel, k, args.points, args.centre_line)
     table = curves_table(curves)
     print(table)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        stem = f'kinematics_{mechanism_path(args.mechanism).stem}'
+        stem = f'kinematics_{mechanism_path(name).stem}'
+        if args.study:
+            stem += f'_{Path(args.study).stem}_{args.axle}'
         (out / f'{stem}.md').write_text(table)
         figure = plot_curves(curves, out / f'{stem}.png')
     except OSError as err:
