@@ -16,6 +16,7 @@ setting`)."""
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -146,6 +147,7 @@ class DesignId:
         return f'{self.name} [{self.kind.display}]'
 
 
+@functools.lru_cache(maxsize=1024)
 def design_id(name: str) -> DesignId:
     """The identity of a design variable's name (ValueError if it is none)."""
     m = _NAME.fullmatch(name) or _CURVE_NAME.fullmatch(name)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from typing import Any
 
@@ -9,6 +10,20 @@ import numpy as np
 import openmdao.api as om
 
 from suspopt.models.design import corner_of_design, design_id
+
+
+@functools.lru_cache(maxsize=64)
+def _plan(
+    names: tuple[str, ...], labels: tuple[str, ...]
+) -> tuple[dict[str, int], dict[str, list[tuple[str, int]]]]:
+    """Each output's size (``k_S``, ``c_S`` per corner always, ``k_R`` per bar, the curve
+    settings of the design per corner) and where each variable acts
+    (:func:`~suspopt.models.design.corner_of_design`): a function of the names, once."""
+    nc = len(labels)
+    ids = [design_id(n) for n in names]
+    sizes = {'k_S': nc, 'c_S': nc, 'k_R': sum(1 for d in ids if d.kind.per_bar)}
+    sizes.update({d.kind.setting: nc for d in ids if d.kind.slot})
+    return {k: v for k, v in sizes.items() if v}, corner_of_design(names, labels)
 
 
 class SuspensionSettingsComp(om.ExplicitComponent):
@@ -34,11 +49,7 @@ class SuspensionSettingsComp(om.ExplicitComponent):
     def _sizes(self) -> dict[str, int]:
         """Each output's size: ``k_S``, ``c_S`` per corner always, ``k_R`` per bar, the
         curve settings of the design per corner."""
-        names, nc = self.options['design'], len(self.options['labels'])
-        ids = [design_id(n) for n in names]
-        sizes = {'k_S': nc, 'c_S': nc, 'k_R': sum(1 for d in ids if d.kind.per_bar)}
-        sizes.update({d.kind.setting: nc for d in ids if d.kind.slot})
-        return {k: v for k, v in sizes.items() if v}
+        return _plan(self.options['design'], self.options['labels'])[0]
 
     def setup(self) -> None:
         names, labels = self.options['design'], self.options['labels']
@@ -69,7 +80,7 @@ class SuspensionSettingsComp(om.ExplicitComponent):
             out[setting] = np.zeros(size, dtype=dtype)
             if setting in defaults:
                 out[setting][:] = defaults[setting]
-        for n, targets in corner_of_design(names, labels).items():
+        for n, targets in _plan(names, labels)[1].items():
             for setting, i in targets:
                 out[setting][i] = np.asarray(inputs[n]).ravel()[0]
         return out

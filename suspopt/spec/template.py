@@ -65,6 +65,22 @@ def default_config_toml(model: str = 'half_car') -> str:
                 f'track = {tv(ax.track)}          # wheel track [m]',
                 f'anti_roll_bar = {tv(ax.anti_roll_bar)}     # its rate k_R is designed',
             ]
+    lines += [
+        '',
+        '# nonlinear hardware per axle (docs/nonlinear_hardware.md; default: the linear',
+        '# spring k_S and damper c_S), e.g.',
+        '# [vehicle.front.damper_curve]   # replaces c_S1; or velocities = [...], forces = [...]',
+        '# c_bump_low = 3000.0            # N s/m up to v_bump_knee, then c_bump_high',
+        '# v_bump_knee = 0.1              # m/s',
+        '# c_bump_high = 1500.0',
+        '# c_rebound_low = 7000.0',
+        '# v_rebound_knee = 0.1',
+        '# c_rebound_high = 3500.0',
+        '# [vehicle.front.bump_stop]      # and rebound_stop; spring_curve: coefficients = [...]',
+        '# gap = 0.03                     # m of bump travel from static',
+        '# coefficients = [2.0e6, 5.0e7]  # k_2 [N/m^2], k_3 [N/m^3]',
+        '# a curve parameter is a design variable when named: [design.c_bump_low_1]',
+    ]
     road = c.road
     lines += [
         '',

@@ -199,3 +199,18 @@ def _toml(data: dict, prefix: str = '') -> str:
     for k, v in tables:
         out.append(_toml(v, f'{prefix}.{k}' if prefix else k))
     return '\n'.join(out)
+
+
+def test_the_templates_commented_hardware_reads_when_uncommented():
+    """``suspopt init``'s example of the hardware tables is a valid study file."""
+    lines = default_config_toml().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith('# nonlinear hardware'))
+    end = next(i for i in range(start, len(lines)) if not lines[i].startswith('#'))
+    body = '\n'.join(
+        line[2:]
+        for line in lines[start:end]
+        if line.startswith(('# [', '# c_', '# v_', '# gap', '# coefficients'))
+    )
+    cfg = config_from_dict(tomllib.loads(body))
+    assert study_units(cfg)[0].bump_stop == BumpStop(0.03, (2.0e6, 5.0e7))
+    assert 'c_S1' not in cfg.design_names()
