@@ -111,8 +111,14 @@ class NonlinearSuspensionForceComp(NodeComponent):
         return tuple(units)
 
     def plan(self) -> CurvePlan:
-        """The corners' curve forms and the parameters that are inputs (:func:`curve_plan`)."""
-        return curve_plan(self._units(), self.options['settings'])
+        """The corners' curve forms and the parameters that are inputs (:func:`curve_plan`);
+        a function of the options, remembered for the time marching's every call."""
+        key = (self.options['unit'], self.options['units'], self.options['settings'])
+        memo = self.__dict__.get('_plan_memo')
+        if memo is None or any(a is not b for a, b in zip(memo[0], key)):
+            memo = (key, curve_plan(self._units(), self.options['settings']))
+            self.__dict__['_plan_memo'] = memo
+        return memo[1]
 
     # ------------------------------------------------------------ OpenMDAO
     def setup(self) -> None:
