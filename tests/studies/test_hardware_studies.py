@@ -59,8 +59,8 @@ GAPS = {'low': 0.02, 'mixed': 0.008}
 def test_collocation_matches_time_marching_through_bump_stop_contact(fidelity):
     """Collocation (24 segments over 0.8 s) and time marching agree on every weighted
     term within the verification's tolerance, on a road where the bump stop engages: the
-    compression at the collocation nodes passes the gap by a margin (low: the travel; mixed: the spring
-    element's compression along its axis, relative to the chassis)."""
+    compression at the collocation nodes passes the gap by a margin (low: the travel;
+    mixed: the spring element's compression along its axis, relative to the chassis)."""
     d = quarter_car()
     d['vehicle']['front']['bump_stop']['gap'] = GAPS[fidelity]
     cfg = config_from_dict(d)
