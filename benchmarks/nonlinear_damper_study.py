@@ -1,4 +1,4 @@
-"""Study: an asymmetric digressive damper and a bump stop against the best linear damper.
+"""Study: asymmetric two-stage dampers and bump stops against the best linear damper.
 
     python benchmarks/nonlinear_damper_study.py [--config examples/nonlinear_damper.toml]
                                                 [--fidelity low|mixed] [--segments N]
@@ -156,7 +156,7 @@ def main() -> None:
     plot(cfg, rec, sig, scales, Path(args.figure))
     write_result(
         'nonlinear_damper' + ('' if args.fidelity == 'low' else f'_{args.fidelity}'),
-        'An asymmetric digressive damper and a bump stop against the best linear damper',
+        'Asymmetric two-stage dampers and bump stops against the best linear damper',
         md,
         {
             'revision': git_revision(),

@@ -222,3 +222,18 @@ def test_a_damper_curve_with_equal_slopes_marches_as_the_linear_damper(per_corne
     J_hw = simulate(hw, 'low', t_eval=t, rtol=1e-5, atol=1e-8).J
     assert np.all(J_lin > 0.0)
     np.testing.assert_array_equal(J_hw, J_lin)
+
+
+def test_the_linear_state_space_refuses_curves():
+    """A vehicle with curves is not linear: the state space (and the spectral toolkit
+    built on it) refuses it; without curves it is read as before."""
+    from suspopt.models.linear import linearize
+
+    d = _hardware_car({'bump_stop': {'gap': 0.03, 'coefficients': [1.0e6]}}, {})
+    cfg = config_from_dict(d)
+    spec = vehicle_spec(cfg, cfg.scenarios()[0], 'low')
+    with pytest.raises(ValueError, match='the suspension has curves'):
+        linearize(assemble(spec, 'low'), cfg.design.initial(), ('z_C',))
+    linear = full_car_defaults()
+    spec = vehicle_spec(linear, linear.scenarios()[0], 'low')
+    assert linearize(assemble(spec, 'low'), linear.design.initial(), ('z_C',)).A.shape[0] > 0
