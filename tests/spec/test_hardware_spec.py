@@ -214,3 +214,29 @@ def test_the_templates_commented_hardware_reads_when_uncommented():
     cfg = config_from_dict(tomllib.loads(body))
     assert study_units(cfg)[0].bump_stop == BumpStop(0.03, (2.0e6, 5.0e7))
     assert 'c_S1' not in cfg.design_names()
+
+
+def test_per_corner_curves_a_spring_table_and_the_automatic_grid():
+    """Per corner, a front polynomial's cubic coefficient (``k_S3_1L``: not the rear rate),
+    a rear spring table (no ``k_S2``: the automatic grid takes the table's rate at static)
+    and a rear rebound stop's gap; the description round-trips."""
+    from suspopt.spec.resolve import wheel_hop_frequency
+
+    d = full_car_defaults().to_dict()
+    f_linear = wheel_hop_frequency(config_from_dict(d))
+    d['vehicle']['front']['spring_curve'] = {'coefficients': [29770.0, 0.0, 1.0e7]}
+    d['vehicle']['rear']['spring_curve'] = {
+        'deflections': [-0.1, 0.0, 0.1],
+        'forces': [-3000.0, 0.0, 4000.0],
+    }
+    d['vehicle']['rear']['rebound_stop'] = {'gap': 0.05, 'coefficients': [1.0e6]}
+    d['design'] = {'per_corner': True, 'k_S3_1': {}, 'rebound_gap_2R': {}}
+    cfg = config_from_dict(d)
+    names = cfg.design_names()
+    assert {'k_S1L', 'k_S1R', 'k_S3_1L', 'k_S3_1R', 'rebound_gap_2R'} <= set(names)
+    assert not {'k_S2L', 'k_S2R', 'rebound_gap_2L'} & set(names)
+    assert cfg.design['k_S3_1L'].initial == 1.0e7
+    # the rear's wheel hop from the table (35 kN/m at static) is below the front's
+    assert wheel_hop_frequency(cfg) == pytest.approx(f_linear)
+    assert cfg.scenarios()[0].segments > 0
+    assert config_from_dict(cfg.to_dict()) == cfg
