@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from suspopt.models.design import design_id
 from suspopt.spec.load import full_car_defaults
 from suspopt.spec.schema import StudyConfig
 
@@ -108,7 +109,7 @@ def default_config_toml(model: str = 'half_car') -> str:
         + ('   # true: one variable per wheel (k_S1L, ...)' if full else ''),
     ]
     for name, dv in c.design.variables.items():
-        unit = {'k_S': 'N/m', 'c_S': 'N s/m', 'k_R': 'N m/rad'}[name[:3]]
+        unit = design_id(name).kind.plain
         lines += [
             f'[design.{name}]  # [{unit}]',
             f'initial = {tv(dv.initial)}\nlower = {tv(dv.lower)}\nupper = {tv(dv.upper)}'
