@@ -15,6 +15,7 @@ from suspopt.cli.exits import FAILED, NOT_VERIFIED, OK
 from suspopt.cli.inputs import Printer, parse_design, start_design, study_config
 from suspopt.errors import ConfigError
 from suspopt.records.solve import SolveRecord
+from suspopt.spec.load import load_config
 
 
 def _error(msg: str) -> None:
@@ -439,18 +440,55 @@ def _render_sweep(directory: Path) -> list[Path]:
     return list(render_sweep(directory))
 
 
+def _study_axle(args: argparse.Namespace) -> tuple[str, object, float | None]:
+    """With ``--study``: the axle's mechanism (``args.mechanism`` if given), that mechanism
+    with the study's hardware curves on its spring (or its name, linear), and the
+    axle's spring rate (the design's initial ``k_S``; None for a spring table)."""
+    from suspopt.models.design import design_id
+    from suspopt.spec.hardware import study_units
+
+    cfg = load_config(args.study)
+    if args.axle == 'rear' and cfg.vehicle.model == 'quarter_car':
+        raise ConfigError('--axle: a quarter car has one corner (front)')
+    a = ('front', 'rear').index(args.axle)
+    name = args.mechanism or cfg.vehicle.axles[a].mechanism
+    rate = next(
+        (
+            x
+            for n, x in cfg.design.initial().items()
+            if design_id(n).kind.symbol == 'k_S' and design_id(n).axle == a
+        ),
+        None,
+    )
+    unit = study_units(cfg)[a]
+    if unit is None:
+        return name, name, rate
+    from suspopt.multibody.mechanism import load_mechanism
+    from suspopt.transcription.vehicle import with_hardware
+
+    return name, with_hardware(load_mechanism(name, suspension=True), unit), rate
+
+
 def kinematics(args: argparse.Namespace) -> int:
     """Kinematic curves of a suspension mechanism: table on stdout, figure and table in --out."""
     from suspopt.multibody.kinematics import curves_table, kinematic_curves, plot_curves
     from suspopt.multibody.mechanism import mechanism_path
     from suspopt.output.rundir import RunDirectory, write_text
 
-    curves = kinematic_curves(args.mechanism, args.travel, args.k, args.points)
+    name, mechanism, k = args.mechanism, args.mechanism, args.k
+    if args.study:
+        name, mechanism, rate = _study_axle(args)
+        k = rate if k is None else k
+    elif name is None:
+        raise ConfigError('kinematics: give a MECHANISM, or --study FILE [--axle front|rear]')
+    curves = kinematic_curves(mechanism, args.travel, k, args.points, args.centre_line)
     table = curves_table(curves)
     print(table)
     # the lock of every command on a directory; its other files stay (one per mechanism)
     with RunDirectory(args.out, fresh=False) as out:
-        stem = f'kinematics_{mechanism_path(args.mechanism).stem}'
+        stem = f'kinematics_{mechanism_path(name).stem}'
+        if args.study:
+            stem += f'_{Path(args.study).stem}_{args.axle}'
         write_text(out / f'{stem}.md', table)
         figure = plot_curves(curves, out / f'{stem}.png')
     print(f'wrote {figure} and {out / f"{stem}.md"}')

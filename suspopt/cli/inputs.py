@@ -67,6 +67,10 @@ def _spring_rate(text: str, flag: str) -> float:
     return number(text, flag, 0.0, 1e7, positive=True, unit='N/m', what='the spring rate')
 
 
+def _centre_line(text: str, flag: str) -> float:
+    return number(text, flag, -10.0, 10.0, unit='m')
+
+
 def _points(text: str, flag: str, command: str) -> int:
     hi = MAX_PARETO_POINTS if command == 'pareto' else MAX_TRAVELS
     what = 'comfort shares' if command == 'pareto' else 'travels'
@@ -89,6 +93,8 @@ ARGUMENTS: dict[str, tuple[str, Callable[[str, str], Any]]] = {
     'scheduler': ('--scheduler', scheduler_address),
     'k': ('--k', _spring_rate),
     'travel': ('--travel', _travel),
+    'centre_line': ('--centre-line', _centre_line),
+    'study': ('--study', path_value),
     'start': ('--start', text_value),
     'design': ('--design', text_value),
 }
@@ -102,6 +108,7 @@ CHOICES_AND_FLAGS = frozenset(
         'normalization',
         'method',
         'model',
+        'axle',
         'worker_start',
         'overwrite',
         'quiet',

@@ -9,7 +9,7 @@ code (:mod:`suspopt.cli.exits`) with one line per problem on stderr.
     suspopt coupling  [--out DIR] ...                       the coupling assumption, 4 x 3
     suspopt init [--model half_car|full_car] FILE         write a default car as a study file
     suspopt report DIR                                    re-render table and figures of a run
-    suspopt kinematics MECHANISM [--out DIR]              a linkage's kinematic curves
+    suspopt kinematics MECHANISM | --study FILE [--axle A]  a linkage's K&C curves
     suspopt robust --config FILE [--fidelity ...]         robust design over the scenarios
     suspopt sweep FILE --out DIR [--workers N | --scheduler ADDR]   many runs on Dask
 

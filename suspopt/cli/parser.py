@@ -226,13 +226,33 @@ def _kinematics(sub: Any) -> None:
     p = sub.add_parser(
         'kinematics',
         help='kinematic curves of a suspension mechanism: motion '
-        'ratio, wheel rate, camber, track change',
+        'ratio, wheel rate, camber, track change, roll centre and its migration',
         epilog=EPILOG,
     )
     p.add_argument(
         'mechanism',
+        nargs='?',
         help='built-in name (double_wishbone, sla_double_wishbone, '
-        'macpherson) or path of a mechanism TOML',
+        "macpherson) or path of a mechanism TOML (default with --study: the axle's)",
+    )
+    p.add_argument(
+        '--study',
+        metavar='FILE',
+        help="a study file: the axle's mechanism, spring rate k_S and hardware curves "
+        '(spring curve, bump and rebound stops: the wheel rate with them; '
+        'docs/nonlinear_hardware.md)',
+    )
+    p.add_argument(
+        '--axle',
+        choices=('front', 'rear'),
+        default='front',
+        help='with --study: which axle (default: %(default)s)',
+    )
+    p.add_argument(
+        '--centre-line',
+        metavar='X',
+        help="lateral position x [m] of the vehicle's centre line in the file's front "
+        "view, for the roll centre (default: the file's [suspension] centre_line)",
     )
     p.add_argument(
         '--travel',

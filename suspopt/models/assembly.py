@@ -21,6 +21,7 @@ import numpy as np
 
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
 from suspopt.models.comfort import SeatAccelerationComp, WeightingFilterComp
+from suspopt.models.design import KINDS, design_id
 from suspopt.models.forces import (
     AntiRollBarComp,
     MountMotionComp,
@@ -36,6 +37,7 @@ from suspopt.models.metric_components import (
     TyreLoadRatioComp,
 )
 from suspopt.models.mount import ChassisMountComp, MountResponseComp, MountRotationComp
+from suspopt.models.nonlinear_forces import NonlinearSuspensionForceComp
 from suspopt.models.road_input import RoadInputComp
 from suspopt.models.settings import SuspensionSettingsComp
 from suspopt.models.wheel import WheelDynamicsComp
@@ -72,6 +74,32 @@ class VehicleSpec:
     static_load: np.ndarray | None = None
     #: the seats where comfort is measured: (name, x ahead of, y left of the CG [m])
     seats: tuple[tuple[str, float, float], ...] = ()
+    #: each corner's suspension hardware as curves (a :class:`~suspopt.curves.
+    #: SpringDamperUnit`; None: the linear spring and damper); () every corner linear
+    units: tuple = ()
+
+    @property
+    def has_curves(self) -> bool:
+        """Whether some corner's hardware has curves (the low fidelity is then nonlinear)."""
+        return any(u is not None for u in self.units)
+
+    @property
+    def curve_settings(self) -> tuple[str, ...]:
+        """The curve parameters that are design variables (``c_bump_low``, ...), in the
+        design's order: the curves' inputs (signals ``curve_<parameter>``)."""
+        kinds = (design_id(n).kind for n in self.design)
+        return tuple(dict.fromkeys(k.symbol for k in kinds if k.slot))
+
+    def curve_defaults(self) -> dict[str, np.ndarray]:
+        """The hardware's value of each of :attr:`curve_settings` at every corner (0 where
+        a corner's hardware lacks the parameter): the corners no variable sets."""
+        out = {}
+        for p in self.curve_settings:
+            values = [
+                0.0 if u is None else u.scalar_parameters().get(p, 0.0) for u in self.units
+            ] or [0.0] * self.layout.n
+            out[KINDS[p].setting] = np.array(values)
+        return out
 
     @property
     def chassis_states(self) -> tuple[str, ...]:
@@ -279,7 +307,10 @@ def _common(spec: VehicleSpec) -> Iterator[Block]:
         ),
     )
     yield Block(
-        'settings', lambda nn: SuspensionSettingsComp(design=spec.design, labels=lay.labels)
+        'settings',
+        lambda nn: SuspensionSettingsComp(
+            design=spec.design, labels=lay.labels, curve_defaults=spec.curve_defaults()
+        ),
     )
     yield Block(
         'mount',
@@ -319,11 +350,34 @@ def _chassis(spec: VehicleSpec, forces: tuple[str, ...]) -> Iterator[Block]:
         )
 
 
+def _curve_inputs(spec: VehicleSpec) -> tuple[tuple[str, str], ...]:
+    """The curve parameters' inputs under their signals' names (``curve_<parameter>``)."""
+    return tuple((p, KINDS[p].setting) for p in spec.curve_settings)
+
+
+def _suspension(spec: VehicleSpec) -> Block:
+    """Eq. 9: the linear spring and damper, or, where a corner has curves, the curves
+    (``docs/nonlinear_hardware.md``) with the design's parameters as inputs."""
+    if not spec.has_curves:
+        return Block('suspension', lambda nn: SuspensionForceComp(**_kw(spec, nn)))
+    rates = tuple(
+        n for n in ('k_S', 'c_S') if any(u is None or n in u.parameter_values() for u in spec.units)
+    )
+    settings = rates + spec.curve_settings
+    return Block(
+        'suspension',
+        lambda nn: NonlinearSuspensionForceComp(
+            units=spec.units, settings=settings, **_kw(spec, nn)
+        ),
+        inputs=_curve_inputs(spec),
+    )
+
+
 def _low_fidelity(spec: VehicleSpec) -> list[Block]:
     """The low-fidelity suspension and wheels: eqs. 9, 10, 7-8 (and the bars)."""
     forces = _forces(spec, 'F_S')
     return [
-        Block('suspension', lambda nn: SuspensionForceComp(**_kw(spec, nn))),
+        _suspension(spec),
         *_anti_roll(spec, 'z_W'),
         Block('tyre', lambda nn: TyreForceComp(k_T=spec.k_T, **_kw(spec, nn))),
         Block('wheel', lambda nn: WheelDynamicsComp(m=spec.m, forces=forces, **_kw(spec, nn))),
@@ -333,6 +387,12 @@ def _low_fidelity(spec: VehicleSpec) -> list[Block]:
 
 def _black_box(spec: VehicleSpec) -> dict[str, Any]:
     return {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
+
+
+def _black_box_settings(spec: VehicleSpec) -> dict[str, Any]:
+    """The dynamic analysis' curve settings: the design's curve parameters (the others
+    keep the modules' values; each one an input costs a batched call per Jacobian)."""
+    return {'curve_settings': spec.curve_settings}
 
 
 def _linkage_kinematics(spec: VehicleSpec) -> Iterator[Block]:
@@ -367,8 +427,10 @@ def _ground_mounted(spec: VehicleSpec) -> list[Block]:
         *_linkage_kinematics(spec),
         Block(
             'dynamics',
-            lambda nn: SuspensionDynamicsComp(**_black_box(spec), **_kw(spec, nn)),
-            inputs=_wheel_load(spec),
+            lambda nn: SuspensionDynamicsComp(
+                **_black_box(spec), **_black_box_settings(spec), **_kw(spec, nn)
+            ),
+            inputs=_wheel_load(spec) + _curve_inputs(spec),
         ),
         *_chassis(spec, _forces(spec, 'F_S')),
     ]
@@ -387,8 +449,10 @@ def _chassis_mounted(spec: VehicleSpec) -> list[Block]:
         *_linkage_kinematics(spec),
         Block(
             'dynamics',
-            lambda nn: ChassisMountDynamicsComp(roll=roll, **_black_box(spec), **_kw(spec, nn)),
-            inputs=_wheel_load(spec),
+            lambda nn: ChassisMountDynamicsComp(
+                roll=roll, **_black_box(spec), **_black_box_settings(spec), **_kw(spec, nn)
+            ),
+            inputs=_wheel_load(spec) + _curve_inputs(spec),
         ),
         Block(
             'chassis',

@@ -71,6 +71,10 @@ class _Probe:
     def __init__(self, assembly: VehicleAssembly, outputs: Sequence[str]):
         if assembly.fidelity != 'low':
             raise ValueError('only the low-fidelity vehicle is linear (fidelity "low")')
+        if assembly.spec.has_curves:
+            raise ValueError(
+                'the suspension has curves (docs/nonlinear_hardware.md): the vehicle is not linear'
+            )
         self.assembly = assembly
         self.evaluate = AssemblyEvaluator(assembly, skip=('road',))
         self.outputs = tuple(outputs)

@@ -68,13 +68,26 @@ class NodewiseBlackBox(om.ExplicitComponent):
             types=float,
             desc='absolute FD step, in the SI units of every input',
         )
+        self.options.declare(
+            'curve_settings',
+            types=tuple,
+            default=None,
+            allow_none=True,
+            desc="the springs' curve parameters that are inputs (default: every one; the "
+            "others keep the files' values)",
+        )
 
     def declare_nodewise_fd(
-        self, outputs: dict[str, int], inputs: list[str], settings: tuple[str, ...] = ()
+        self,
+        outputs: dict[str, int],
+        inputs: list[str],
+        settings: tuple[str, ...] = (),
+        held: tuple[str, ...] = (),
     ) -> None:
         """Partials of each output (``outputs[name]`` values per node and corner) w.r.t.
         each (nodes, corners) input — one block of rows per entry, in that entry's column —
-        and w.r.t. each per-corner setting (corners,) — every node of its corner.
+        and w.r.t. each per-corner setting (corners,) — every node of its corner. ``held``:
+        inputs the call takes that are not differenced (no module depends on them).
 
         The step of a node-wise input is absolute and the same for every input (in its SI
         units); a setting's is relative (``fd_step`` times its magnitude, at least 1)."""
@@ -82,6 +95,7 @@ class NodewiseBlackBox(om.ExplicitComponent):
         n = nn * nc
         self._fd_outputs = dict(outputs)
         self._fd_inputs, self._fd_settings = list(inputs) + list(settings), tuple(settings)
+        self._held = tuple(held)
         for of, width in outputs.items():
             rows = np.arange(n * width)
             for wrt in inputs:
@@ -93,8 +107,22 @@ class NodewiseBlackBox(om.ExplicitComponent):
 
     @property
     def _curves(self) -> tuple[str, ...]:
-        """The names of the springs' curve parameters (inputs beside ``k_S``, ``c_S``)."""
-        return tuple(curve_setting_names(self.options['modules']))
+        """The names of the springs' curve parameters that are inputs (beside ``k_S``,
+        ``c_S``): every one, or those of the option ``curve_settings``."""
+        modules, wanted = self.options['modules'], self.options['curve_settings']
+        memo = self.__dict__.get('_curves_memo')
+        if memo is None or memo[0] is not modules or memo[1] != wanted:
+            names = curve_setting_names(modules)
+            memo = (modules, wanted, tuple(n for n in names if wanted is None or n in wanted))
+            self.__dict__['_curves_memo'] = memo  # a function of the options: every call
+        return memo[2]
+
+    @property
+    def _rates(self) -> tuple[str, ...]:
+        """``k_S`` and ``c_S`` if some module's spring takes them (a curve replaces the
+        linear damper's ``c_S``, a table the rate ``k_S``): the settings differenced."""
+        mods = self.options['modules']
+        return tuple(n for n in ('k_S', 'c_S') if any(n in m.settings for m in mods))
 
     def groups(self) -> list[tuple[SuspensionModule, list[int]]]:
         """The corners of each distinct module (analysed in one batch)."""
@@ -121,8 +149,12 @@ class NodewiseBlackBox(om.ExplicitComponent):
     def _key(self, values) -> bytes:
         return b''.join(np.ascontiguousarray(values[k]).tobytes() for k in self._fd_inputs)
 
+    def _values(self, inputs) -> dict[str, np.ndarray]:
+        """The call's inputs: the differenced and the held ones."""
+        return {k: np.array(inputs[k]) for k in (*self._fd_inputs, *getattr(self, '_held', ()))}
+
     def compute(self, inputs, outputs) -> None:
-        values = {k: np.array(inputs[k]) for k in self._fd_inputs}
+        values = self._values(inputs)
         out = self._call(values)
         self._last = (self._key(values), out)  # the base point of the next differences
         for name in self._fd_outputs:
@@ -131,7 +163,7 @@ class NodewiseBlackBox(om.ExplicitComponent):
     def compute_partials(self, inputs, partials) -> None:
         """Forward (or central) differences, one input at all nodes and corners per
         black-box call."""
-        base_in = {k: np.array(inputs[k]) for k in self._fd_inputs}
+        base_in = self._values(inputs)
         step, central = self.options['fd_step'], self.options['fd_form'] == 'central'
         base = None
         if not central:
@@ -142,6 +174,7 @@ class NodewiseBlackBox(om.ExplicitComponent):
             h = step * np.maximum(1.0, np.abs(x)) if wrt in self._fd_settings else step
             up = self._call(dict(base_in, **{wrt: x + h}))
             low = self._call(dict(base_in, **{wrt: x - h})) if central else base
+            assert low is not None
             scale = (2.0 if central else 1.0) * h
             for of in self._fd_outputs:
                 partials[of, wrt] = self._scaled(up[of] - low[of], scale)
@@ -227,12 +260,14 @@ def curve_setting_names(modules: tuple) -> dict[str, tuple[str, float]]:
 
 def curve_setting_inputs(comp: NodewiseBlackBox) -> tuple[str, ...]:
     """Add the per-corner inputs of the springs' curve parameters
-    (:func:`curve_setting_names`); their names."""
+    (:func:`curve_setting_names`, those of the option ``curve_settings``); their names."""
     nc = comp.options['corners']
     names = curve_setting_names(comp.options['modules'])
+    wanted = comp.options['curve_settings']
     for n, (units, default) in names.items():
-        comp.add_input(n, val=default, shape=(nc,), units=units, desc='spring curve parameter')
-    return tuple(names)
+        if wanted is None or n in wanted:
+            comp.add_input(n, val=default, shape=(nc,), units=units, desc='spring curve parameter')
+    return comp._curves
 
 
 def curve_settings(
@@ -313,7 +348,8 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.declare_nodewise_fd(
             {'zdd_W': 1, 'F_S': 1, 'reactions': 2 * nj},
             list(self.NODE_INPUTS),
-            settings=('k_S', 'c_S', *self._curves),
+            settings=(*self._rates, *self._curves),
+            held=tuple(n for n in ('k_S', 'c_S') if n not in self._rates),
         )
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -391,7 +427,8 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.declare_nodewise_fd(
             {'response': self._blocks * self.width, 'F_S': 1},
             ['z_W', 'v_W', *pose, 'F_T'],
-            settings=('k_S', 'c_S', *self._curves),
+            settings=(*self._rates, *self._curves),
+            held=tuple(n for n in ('k_S', 'c_S') if n not in self._rates),
         )
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

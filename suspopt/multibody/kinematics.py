@@ -29,7 +29,9 @@ suspension spring (the ``spring`` role):
   the construction assumes a symmetric vehicle moving in heave, both sides alike, so the
   roll centre lies on the centre line. The instant centre itself (``instant_centre``, in
   the file's frame; infinite for a translating wheel, :data:`FAR`) is
-  ``r + perp(ṙ)/φ̇`` of that body.
+  ``r + perp(ṙ)/φ̇`` of that body;
+* roll centre migration: the roll centre's height less its height at the reference
+  pose (zero travel, analysed with the others whatever the range).
 
 A suspension spring with curves (:mod:`suspopt.curves`: a progressive spring,
 bump and rebound stops) replaces ``½ k s²`` by its elastic energy ``E(x)``, ``x = -s``
@@ -66,6 +68,7 @@ COLUMNS = (
     ('track_change', 'track change [mm]', 1e3),
     ('wheel_force', 'wheel force [N]', 1.0),
     ('roll_centre_height', 'roll centre height [mm]', 1e3),
+    ('roll_centre_migration', 'roll centre migration [mm]', 1e3),
 )
 
 
@@ -116,7 +119,9 @@ def kinematic_curves(
     body = s.body_names.index(mech.marker(roles['wheel_marker']).body)
     hub = s.body_names.index(mech.marker(mech.force(roles['tyre_load']).marker).body)
     ref = s.marker_reference()
-    target = np.linspace(lo, hi, points)
+    # and the reference pose (the roll centre's migration), analysed with them, then split
+    target = np.append(np.linspace(lo, hi, points), 0.0)
+    points += 1
     z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
     try:
         for _ in range(30):  # Newton on w(z) = target, all at once
@@ -156,7 +161,8 @@ def kinematic_curves(
         ic = r + np.stack([-v[:, 1], v[:, 0]], -1) / omega[:, None]
     # a translating wheel (to rounding): at infinity
     ic[~(np.abs(omega) * FAR > np.hypot(v[:, 0], v[:, 1]))] = np.inf
-    return {
+    height = (P[:, 0] - x_c) * v_P[:, 0] / v_P[:, 1]
+    out = {
         'name': mech.name,
         'spring_rate': k,
         'centre_line': x_c,
@@ -168,13 +174,15 @@ def kinematic_curves(
         'camber': -np.degrees(q[:, 3 * body + 2] - s.q0[3 * body + 2]),
         'track_change': P[:, 0] - ref[patch, 0],
         'wheel_force': -force * s_w,
-        'roll_centre_height': (P[:, 0] - x_c) * v_P[:, 0] / v_P[:, 1],
+        'roll_centre_height': height,
+        'roll_centre_migration': height - height[-1],
         'instant_centre': ic,
     }
+    return {k: v[:-1] if isinstance(v, np.ndarray) else v for k, v in out.items()}
 
 
 def curves_table(curves: dict[str, Any]) -> str:
-    """A Markdown table of :func:`kinematic_curves`."""
+    """A Markdown table of :func:`kinematic_curves`, then a line on the roll centre."""
     lines = [
         f'{curves["name"]}: kinematic curves (spring rate {curves["spring_rate"]:g} N/m)',
         '',
@@ -185,6 +193,15 @@ def curves_table(curves: dict[str, Any]) -> str:
         lines.append(
             '| ' + ' | '.join(_fmt(curves[key][i] * scale) for key, _, scale in COLUMNS) + ' |'
         )
+    h, w = curves['roll_centre_height'], curves['travel']
+    h0 = h[0] - curves['roll_centre_migration'][0]
+    lines += [
+        '',
+        f'roll centre: {1e3 * h0:.1f} mm above ground at the reference pose, '
+        f'{1e3 * h.min():.1f} to {1e3 * h.max():.1f} mm over the travel '
+        f'[{1e3 * w.min():.0f}, {1e3 * w.max():.0f}] mm (centre line x = '
+        f'{curves["centre_line"]:g} m)',
+    ]
     return '\n'.join(lines) + '\n'
 
 
@@ -198,21 +215,23 @@ PLOTTED = (
     'motion_ratio',
     'wheel_rate',
     'wheel_force',
+    'spring_deflection',
     'camber',
     'track_change',
     'roll_centre_height',
+    'roll_centre_migration',
 )
 
 
 def plot_curves(curves: dict[str, Any], path: str | Path) -> Path:
-    """Motion ratio, wheel rate, wheel force, camber, track change and roll centre height
-    against wheel travel (PNG)."""
+    """Motion ratio, wheel rate, wheel force, spring deflection, camber, track change, roll
+    centre height and its migration against wheel travel (PNG)."""
     import matplotlib
 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5), sharex=True)
+    fig, axes = plt.subplots(2, 4, figsize=(15, 6.5), sharex=True)
     w = curves['travel'] * 1e3
     for ax, (key, head, scale) in zip(
         axes.ravel(), [c for key in PLOTTED for c in COLUMNS if c[0] == key]

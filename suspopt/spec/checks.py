@@ -10,13 +10,13 @@ from typing import Any
 
 import numpy as np
 
+import suspopt.spec.hardware as hardware
 from suspopt.errors import ConfigError
-from suspopt.models.design import DESIGN_UNITS, design_kind
+from suspopt.models.design import DESIGN_UNITS, design_id, design_kind
 from suspopt.road import PROFILES, TWO_TRACKS, CSVRoad, make_road, profile_fields
 from suspopt.road.profiles import MAX_FEATURE_HEIGHT
 from suspopt.spec.schema import (
     AGGREGATES,
-    DESIGN_LIMITS,
     HORIZON_RANGE,
     MAX_NLP_VARIABLES,
     MODELS,
@@ -25,6 +25,7 @@ from suspopt.spec.schema import (
     SPEED_RANGE,
     StudyConfig,
     VehicleConfig,
+    design_limit,
 )
 from suspopt.spec.values import Problems, did_you_mean, is_number, parse_value, range_problem
 
@@ -60,6 +61,7 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
     errs = Problems()
     errs.extend(_vehicle_checks(cfg.vehicle))
     errs.extend(_design_checks(cfg))
+    errs.extend(_hardware_checks(cfg))
     errs.extend(_objective_checks(cfg))
     errs.extend(_comfort_checks(cfg))
     errs.extend(_constraint_checks(cfg))
@@ -127,7 +129,7 @@ def _design_checks(cfg: StudyConfig) -> list[str]:
         vals = (dv.initial, dv.lower, dv.upper)
         if not all(math.isfinite(x) for x in vals):
             continue
-        limit = DESIGN_LIMITS[design_kind(name)]
+        limit = design_limit(name)
         for which, x in (('initial', dv.initial), ('lower', dv.lower), ('upper', dv.upper)):
             if x > limit:
                 errs.add(
@@ -138,6 +140,8 @@ def _design_checks(cfg: StudyConfig) -> list[str]:
         if design_kind(name) == 'k_R':
             if dv.lower < 0.0:
                 errs.add(f'{key}.lower', f'must be >= 0 (a bar rate), got {dv.lower:g}')
+        elif design_id(name).kind.slot:
+            pass  # a curve parameter: the hardware's own checks (_hardware_checks)
         elif dv.lower <= 0.0:
             errs.add(f'{key}.lower', f'must be > 0 (a rate or damping), got {dv.lower:g}')
         if dv.lower > dv.upper:
@@ -147,6 +151,41 @@ def _design_checks(cfg: StudyConfig) -> list[str]:
                 f'{key}.initial',
                 f'{dv.initial:g} is outside the bounds [{dv.lower:g}, {dv.upper:g}]',
             )
+    return list(errs)
+
+
+def _hardware_checks(cfg: StudyConfig) -> list[str]:
+    """Each axle's curves read and serve its travel (``docs/nonlinear_hardware.md``:
+    negative slopes, tables not increasing or not through zero, a stop's gap beyond the
+    travel ...), and so do they at every bound and initial value of their parameters'
+    design variables (a polynomial spring's rate ``k_S`` included)."""
+    errs = Problems()
+    v = cfg.vehicle
+    initial = cfg.design.initial()
+    for a in range(1 if v.model == 'quarter_car' else 2):
+        ax, key = v.axles[a], hardware.axle_key(a)
+        if not ax.has_curves:
+            continue
+        travel = hardware.axle_travel(v, cfg.constraints, a)
+        start = {design_id(n).kind.symbol: x for n, x in initial.items() if design_id(n).axle == a}
+        try:
+            hardware.build_unit(ax, key, start.get('k_S'), start.get('c_S'), travel)
+        except ConfigError as err:
+            errs.extend(err.problems)
+            continue
+        for name, dv in cfg.design.variables.items():
+            d = design_id(name)
+            polynomial = d.kind.symbol == 'k_S' and 'coefficients' in ax.spring_curve
+            if d.axle != a or not (d.kind.slot or polynomial):
+                continue
+            for which in ('lower', 'initial', 'upper'):
+                x = getattr(dv, which)
+                if not math.isfinite(x):
+                    continue
+                found = hardware.unit_problems_at(ax, key, {d.kind.symbol: x}, travel)
+                if found:
+                    errs.add(f'design.{name}.{which}', f'{x:g} {d.kind.plain} makes {found[0]}')
+                    break
     return list(errs)
 
 

@@ -14,9 +14,10 @@ import math
 from pathlib import Path
 from typing import Any
 
+import suspopt.spec.hardware as hardware
 from suspopt.errors import ConfigError
 from suspopt.inputs import read_toml
-from suspopt.models.design import design_kind
+from suspopt.models.design import design_id, design_kind
 from suspopt.models.metrics import term_groups
 from suspopt.road import TWO_TRACKS
 from suspopt.spec.checks import canonical_road, layout_ok, semantic_checks
@@ -43,7 +44,17 @@ def full_car_defaults() -> StudyConfig:
     return config_from_dict(BMW_E90)
 
 
-_TABLE_REPLACED = ('road', 'options', 'weights', 'scales')
+#: tables a study file's own replaces (not merged key by key with the default car's)
+_TABLE_REPLACED = (
+    'road',
+    'options',
+    'weights',
+    'scales',
+    'spring_curve',
+    'damper_curve',
+    'bump_stop',
+    'rebound_stop',
+)
 
 #: the default car of each vehicle model besides the paper's half car (the schema's)
 MODEL_DEFAULTS: dict[str, dict[str, Any]] = {'full_car': BMW_E90, 'quarter_car': QUARTER_CAR}
@@ -86,10 +97,17 @@ def _merge(base: dict, override: dict) -> dict:
 
 
 def _parse_design(
-    data: Any, vehicle: VehicleConfig, errs: Problems, defaults: dict[str, Any] | None = None
+    data: Any,
+    vehicle: VehicleConfig,
+    errs: Problems,
+    defaults: dict[str, Any] | None = None,
+    constraints: Any = None,
 ) -> DesignConfig:
     """The design table; a variable not given takes the default car's entry
-    (``defaults``) or the kind's default (:data:`DESIGN_DEFAULTS`)."""
+    (``defaults``) or the kind's default (:data:`DESIGN_DEFAULTS`). A curve parameter's
+    variable (``c_bump_low_1``, :mod:`suspopt.spec.hardware`) exists when named; its
+    initial value defaults to the hardware's, its bounds to
+    :func:`~suspopt.spec.hardware.default_bounds`."""
     defaults = defaults or {}
     if not isinstance(data, dict):
         errs.add('design', f'must be a table, got {data!r}')
@@ -101,25 +119,41 @@ def _parse_design(
     if per_corner and vehicle.model != 'full_car':
         errs.add('design.per_corner', 'only the full car has left and right corners')
         per_corner = False
-    names = design_names(vehicle, per_corner)
+    base = design_names(vehicle, per_corner)
+    curves = hardware.curve_variable_names(vehicle, per_corner, data)
+    names = tuple(n for n in base if design_kind(n) != 'k_R') + curves
+    names += tuple(n for n in base if design_kind(n) == 'k_R')
     axle_names = design_names(vehicle, False) if per_corner else ()
+    allowed = (
+        set(names) | set(axle_names) | set(hardware.allowed_curve_variables(vehicle, per_corner))
+    )
     for k in data:
-        if k != 'per_corner' and k not in names and k not in axle_names:
-            errs.add(
-                f'design.{k}',
-                'unknown key'
-                + did_you_mean(k, names)
-                + f' (design variables of this car: {", ".join(names)})',
-            )
+        if k != 'per_corner' and k not in allowed:
+            errs.add(f'design.{k}', _unknown_design(k, vehicle, names, allowed))
+    hardware_values = {a: hardware.curve_defaults(ax) for a, ax in enumerate(vehicle.axles)}
+    travels: dict[int, tuple[float, float] | None] = {}
     variables = {}
     for n in names:
-        default = dict(zip(('initial', 'lower', 'upper'), DESIGN_DEFAULTS[design_kind(n)]))
-        default.update(
-            defaults.get(n, defaults.get(n[:4], {})) if per_corner else defaults.get(n, {})
-        )
+        d = design_id(n)
+        default: dict[str, Any]
+        own = hardware_values[d.axle].get(d.kind.symbol)
+        if d.kind.slot:  # a curve parameter: the hardware's value, bounds around it
+            if d.axle not in travels and constraints is not None:
+                travels[d.axle] = hardware.axle_travel(vehicle, constraints, d.axle)
+            lower, upper = hardware.default_bounds(d.kind.symbol, own or 0.0, travels.get(d.axle))
+            default = {'initial': own, 'lower': lower, 'upper': upper}
+        else:
+            default = dict(zip(('initial', 'lower', 'upper'), DESIGN_DEFAULTS[d.kind.symbol]))
+            default.update(
+                defaults.get(n, defaults.get(d.axle_name, {}))
+                if per_corner
+                else defaults.get(n, {})
+            )
+            if own is not None:  # a polynomial spring's rate: its first coefficient
+                default['initial'] = own
         given = data.get(n, {})
         if per_corner and not given:  # a corner's variable defaults to its axle's
-            given = data.get(n[:4], {})
+            given = data.get(d.axle_name, {})
         variables[n] = parse_dataclass(
             DesignVariable,
             {**default, **given} if isinstance(given, dict) else given,
@@ -127,6 +161,40 @@ def _parse_design(
             errs,
         )
     return DesignConfig(per_corner=per_corner, variables=variables)
+
+
+def _unknown_design(
+    key: str, vehicle: VehicleConfig, names: tuple[str, ...], allowed: set[str]
+) -> str:
+    """Why ``key`` is no design variable of this car (and what is)."""
+    try:
+        d = design_id(key)
+    except ValueError:
+        d = None
+    if d is not None and d.axle < len(vehicle.axles):
+        ax, where = vehicle.axles[d.axle], hardware.axle_key(d.axle)
+        if d.kind.symbol == 'c_S' and not ax.has_linear_damper:
+            return (
+                f'the damper of {where} is a curve ({where}.damper_curve): its parameters '
+                'are the design variables ('
+                + ', '.join(
+                    n for n in sorted(allowed) if n.startswith(('c_bump', 'c_rebound', 'v_'))
+                )
+                + ')'
+            )
+        if d.kind.symbol == 'k_S' and not ax.has_spring_rate:
+            return f'the spring of {where} is a table ({where}.spring_curve): it has no rate k_S'
+        if d.kind.slot and d.kind.symbol not in hardware.curve_parameters(ax):
+            return (
+                f'{where} has no curve parameter {d.kind.symbol!r} (its curves: '
+                + (', '.join(hardware.curve_parameters(ax)) or f'none; give {where}.{d.kind.slot}')
+                + ')'
+            )
+    return (
+        'unknown key'
+        + did_you_mean(key, sorted(allowed))
+        + f' (design variables of this car: {", ".join(names)})'
+    )
 
 
 def _paper_terms(terms: tuple[str, ...]) -> tuple[str, ...]:
@@ -232,7 +300,11 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
     scales_data = objective.pop('scales', None) if isinstance(objective, dict) else None
     cfg = parse_dataclass(StudyConfig, {k: v for k, v in full.items() if k != 'design'}, '', errs)
     design = _parse_design(
-        design_data if design_data is not None else {}, cfg.vehicle, errs, defaults['design']
+        design_data if design_data is not None else {},
+        cfg.vehicle,
+        errs,
+        defaults['design'],
+        cfg.constraints,
     )
     terms = cfg.terms() if layout_ok(cfg.vehicle) else ()
     weights = (

@@ -48,8 +48,7 @@ FREE_FORM = {
     '(`wheel`, `tyre_load`, `travel`, `comfort`: split equally), or a list in term order.',
     'objective.scales': 'With `normalization = "custom"`: a positive scale for every '
     'weighted term, by term or as a list over the weighted terms.',
-    'optimizer.options': 'Further IPOPT options by name, checked by IPOPT itself before '
-    'any work.',
+    'optimizer.options': 'Further IPOPT options by name, checked by IPOPT itself before any work.',
 }
 
 

@@ -29,6 +29,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from suspopt.curves import SpringTable
+from suspopt.models.design import design_id
 from suspopt.road import road_tracks
 
 if TYPE_CHECKING:  # the schema builds on this module; only its types are used here
@@ -69,14 +71,26 @@ def wheel_hop_frequency(config: StudyConfig) -> float:
     for c in layout.corners:
         axle = v.axles[c.axle]
         ks = [
-            design[n].upper for n in design.names if n.startswith('k_S') and n[3] == str(c.axle + 1)
+            design[n].upper
+            for n in design.names
+            if design_id(n).kind.symbol == 'k_S' and design_id(n).axle == c.axle
         ]
         kr = [design[n].upper for n in design.names if n == f'k_R{c.axle + 1}']
-        k = max(ks) + axle.tyre_stiffness
+        k = (max(ks) if ks else _table_rate(axle.spring_curve)) + axle.tyre_stiffness
         if kr and axle.track > 0.0:
             k += kr[0] / axle.track**2
         f = max(f, math.sqrt(k / axle.wheel_mass) / (2.0 * math.pi))
     return f
+
+
+def _table_rate(table: dict[str, Any]) -> float:
+    """A spring table's rate at static [N/m] (an axle whose spring is a table has no
+    ``k_S``, ``docs/nonlinear_hardware.md``); 0 if it does not read (its checks say why)."""
+    try:
+        curve = SpringTable(tuple(table['deflections']), tuple(table['forces']))
+        return max(float(curve.derivative(0.0)), 0.0)
+    except (KeyError, TypeError, ValueError, IndexError):
+        return 0.0
 
 
 def resolved_frequencies(config: StudyConfig, scenario: Scenario) -> list[tuple[float, str]]:

@@ -21,10 +21,11 @@ resolved once per description by :mod:`suspopt.spec.resolve`).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from suspopt.models.design import design_kind
+from suspopt.models.design import design_id, design_kind
 from suspopt.models.layout import VehicleLayout, full_car, half_car, quarter_car
 from suspopt.models.metrics import objective_terms as metric_terms
 from suspopt.road import RoadProfile, make_road
@@ -43,8 +44,20 @@ PAPER_SCALES = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
 #: Largest NLP suspopt builds, all scenarios together: nodes × states (a guard against a
 #: typo such as segments = 100000: the build's time and memory grow faster than its size)
 MAX_NLP_VARIABLES = 150_000
-#: Design variables' largest plausible values by kind (a guard against a unit typo).
+#: Design variables' largest plausible values by kind (a guard against a unit typo); a
+#: curve parameter's by its units (:func:`design_limit`)
 DESIGN_LIMITS = {'k_S': 1e7, 'c_S': 1e6, 'k_R': 1e7}
+#: the largest plausible value of a curve parameter by its units: damping, knee
+#: velocity, gap
+CURVE_LIMITS = {'N*s/m': 1e6, 'm/s': 20.0, 'm': 1.0}
+
+
+def design_limit(name: str) -> float:
+    """The largest plausible value of design variable ``name`` (a unit typo above)."""
+    kind = design_id(name).kind
+    if kind.symbol in DESIGN_LIMITS:
+        return DESIGN_LIMITS[kind.symbol]
+    return CURVE_LIMITS.get(kind.units, math.inf)  # a polynomial's coefficient: any
 
 
 #: maneuver limits (also for scenarios)
@@ -94,6 +107,47 @@ class AxleConfig:
             -1.0, 2.0, 'm', 'a roll centre height', doc='kinematic roll centre above ground [m]'
         ),
     )
+    # the suspension hardware as curves (docs/nonlinear_hardware.md); {}: the linear
+    # spring k_S and damper c_S of the design
+    spring_curve: dict[str, Any] = field(
+        default_factory=dict,
+        metadata={
+            'doc': 'progressive spring: coefficients = [k_1, k_2, ..] [N/m^i] (k_1 is the '
+            'design variable k_S) or deflections [m], forces [N] (a table)'
+        },
+    )
+    damper_curve: dict[str, Any] = field(
+        default_factory=dict,
+        metadata={
+            'doc': 'damper curve replacing c_S: c_bump_low, v_bump_knee, c_bump_high, '
+            'c_rebound_low, v_rebound_knee, c_rebound_high [N s/m, m/s] (v_zero, '
+            'knee_width) or velocities [m/s], forces [N] (a table)'
+        },
+    )
+    bump_stop: dict[str, Any] = field(
+        default_factory=dict,
+        metadata={'doc': 'gap [m] from static, coefficients = [k_2, k_3, ..] [N/m^i]'},
+    )
+    rebound_stop: dict[str, Any] = field(
+        default_factory=dict,
+        metadata={'doc': 'gap [m] from static, coefficients = [k_2, k_3, ..] [N/m^i]'},
+    )
+
+    @property
+    def has_curves(self) -> bool:
+        """Whether the axle's hardware has curves (any of the four tables given)."""
+        return bool(self.spring_curve or self.damper_curve or self.bump_stop or self.rebound_stop)
+
+    @property
+    def has_spring_rate(self) -> bool:
+        """Whether the axle's spring has the rate ``k_S`` (linear or polynomial, not a
+        table)."""
+        return not ({'deflections', 'forces'} & set(self.spring_curve))
+
+    @property
+    def has_linear_damper(self) -> bool:
+        """Whether the axle's damper is the linear ``c_S`` (no damper curve)."""
+        return not self.damper_curve
 
 
 @dataclass(frozen=True)
@@ -177,7 +231,9 @@ DESIGN_DEFAULTS = {
 
 def design_names(vehicle: VehicleConfig, per_corner: bool = False) -> tuple[str, ...]:
     """The design variables of a car: spring rate and damping per axle (``k_S1``, ``c_S2``)
-    or per corner (``k_S1L`` ...), then each anti-roll bar's rate (``k_R1``)."""
+    or per corner (``k_S1L`` ...), then each anti-roll bar's rate (``k_R1``). An axle
+    whose spring is a table has no ``k_S``, one with a damper curve no ``c_S`` (its
+    curves' parameters may be variables instead: :mod:`suspopt.spec.hardware`)."""
     groups = (
         vehicle.layout().labels
         if per_corner and vehicle.model == 'full_car'
@@ -185,7 +241,12 @@ def design_names(vehicle: VehicleConfig, per_corner: bool = False) -> tuple[str,
         if vehicle.model == 'quarter_car'
         else ('1', '2')
     )
-    names = [f'k_S{g}' for g in groups] + [f'c_S{g}' for g in groups]
+
+    def axle(g: str) -> AxleConfig:
+        return vehicle.axles[int(g[0]) - 1]
+
+    names = [f'k_S{g}' for g in groups if axle(g).has_spring_rate]
+    names += [f'c_S{g}' for g in groups if axle(g).has_linear_damper]
     if vehicle.model == 'full_car':
         names += [f'k_R{i + 1}' for i, ax in enumerate(vehicle.axles) if ax.anti_roll_bar]
     return tuple(names)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from suspopt.models.design import design_id
 from suspopt.spec.load import full_car_defaults
 from suspopt.spec.schema import StudyConfig
 
@@ -65,6 +66,22 @@ def default_config_toml(model: str = 'half_car') -> str:
                 f'track = {tv(ax.track)}          # wheel track [m]',
                 f'anti_roll_bar = {tv(ax.anti_roll_bar)}     # its rate k_R is designed',
             ]
+    lines += [
+        '',
+        '# nonlinear hardware per axle (docs/nonlinear_hardware.md; default: the linear',
+        '# spring k_S and damper c_S), e.g.',
+        '# [vehicle.front.damper_curve]   # replaces c_S1; or velocities = [...], forces = [...]',
+        '# c_bump_low = 3000.0            # N s/m up to v_bump_knee, then c_bump_high',
+        '# v_bump_knee = 0.1              # m/s',
+        '# c_bump_high = 1500.0',
+        '# c_rebound_low = 7000.0',
+        '# v_rebound_knee = 0.1',
+        '# c_rebound_high = 3500.0',
+        '# [vehicle.front.bump_stop]      # and rebound_stop; spring_curve: coefficients = [...]',
+        '# gap = 0.03                     # m of bump travel from static',
+        '# coefficients = [2.0e6, 5.0e7]  # k_2 [N/m^2], k_3 [N/m^3]',
+        '# a curve parameter is a design variable when named: [design.c_bump_low_1]',
+    ]
     road = c.road
     lines += [
         '',
@@ -92,7 +109,7 @@ def default_config_toml(model: str = 'half_car') -> str:
         + ('   # true: one variable per wheel (k_S1L, ...)' if full else ''),
     ]
     for name, dv in c.design.variables.items():
-        unit = {'k_S': 'N/m', 'c_S': 'N s/m', 'k_R': 'N m/rad'}[name[:3]]
+        unit = design_id(name).kind.plain
         lines += [
             f'[design.{name}]  # [{unit}]',
             f'initial = {tv(dv.initial)}\nlower = {tv(dv.lower)}\nupper = {tv(dv.upper)}'

@@ -5,7 +5,7 @@ Beside each constraint-Jacobian coloring, the exact Hessian's structure
 
 The total-Jacobian sparsity and its coloring (:mod:`suspopt.driver.sparsity`) depend only
 on the model's structure —
-fidelity, grid, the mechanisms' topology and the code
+fidelity, grid, the mechanisms' topology, the forms of the suspension's curves and the code
 that builds the model — not on numbers (masses, road, design), so one coloring serves
 every study with the same structure. The key hashes exactly that structure, including
 the OpenMDAO/Dymos versions and a digest of suspopt's model-building source, so a code
@@ -28,6 +28,7 @@ import openmdao
 
 from suspopt.driver.hessian import HessianStructure
 from suspopt.driver.sparsity import Coloring
+from suspopt.spec.hardware import curves_structure
 from suspopt.spec.schema import StudyConfig
 
 _MODEL_SOURCES = (
@@ -72,6 +73,9 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
         'versions': [openmdao.__version__, dymos.__version__],
         'source': _source_digest(),
     }
+    curves = curves_structure(config)
+    if curves is not None:  # the hardware's curve forms (their parameters' inputs)
+        structure['curves'] = curves
     if fidelity == 'mixed':
         structure['mechanisms'] = [
             load_mechanism(ax.mechanism, suspension=True).structure() for ax in v.axles

@@ -4,22 +4,78 @@ description."""
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 
+from suspopt.curves import SpringDamperUnit
+from suspopt.errors import ConfigError
 from suspopt.models.assembly import VehicleAssembly, VehicleSpec, assemble
 from suspopt.models.metrics import static_loads
+from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.suspension import SuspensionModule
 from suspopt.road import road_tracks
+from suspopt.spec.hardware import AXLE_KEYS, corner_units, study_units
 from suspopt.spec.resolve import Scenario
 from suspopt.spec.schema import StudyConfig
 
 
+def module_keys(config: StudyConfig) -> tuple[str, ...]:
+    """The key of each axle's multibody module (:func:`multibody_modules`): its mechanism's
+    name, and the axle where the study gives it curves (``docs/nonlinear_hardware.md``;
+    axles with the same mechanism and the same curves share one)."""
+    axles = config.vehicle.axles
+    units = study_units(config)
+    keys: list[str] = []
+    for a, ax in enumerate(axles):
+        unit = units[a] if a < len(units) else None
+        same = [
+            keys[b]
+            for b in range(a)
+            if axles[b].mechanism == ax.mechanism and (units[b] if b < len(units) else None) == unit
+        ]
+        keys.append(
+            same[0]
+            if same
+            else ax.mechanism
+            if unit is None
+            else f'{ax.mechanism} ({AXLE_KEYS[a]})'
+        )
+    return tuple(keys)
+
+
+def with_hardware(mechanism: Mechanism, unit: SpringDamperUnit) -> Mechanism:
+    """The suspension mechanism with the study's curves on its suspension spring (they
+    replace the file's stiffness, damping and curves)."""
+    spring = mechanism.roles['spring']
+    element: Any = mechanism.force(spring)
+    if not hasattr(element, 'curves'):
+        raise ConfigError(
+            f'{mechanism.name}: its suspension spring {spring!r} ({element.type}) takes no '
+            'curves: a spring_damper or linear_spring_damper is needed'
+        )
+    forces = tuple(
+        dataclasses.replace(f, curves=unit, stiffness=0.0, damping=0.0) if f is element else f
+        for f in mechanism.forces
+    )
+    return dataclasses.replace(mechanism, forces=forces)
+
+
 def multibody_modules(config: StudyConfig) -> dict[str, Any]:
-    """One multibody module per distinct mechanism of the car (shared by its corners)."""
-    names = dict.fromkeys(ax.mechanism for ax in config.vehicle.axles)
-    return {n: SuspensionModule(n, mount=config.multibody.mount) for n in names}
+    """One multibody module per distinct mechanism of the car (shared by its corners), and
+    per axle with the study's curves on its spring (:func:`module_keys`)."""
+    units = study_units(config)
+    out: dict[str, Any] = {}
+    for a, (key, ax) in enumerate(zip(module_keys(config), config.vehicle.axles)):
+        if key in out:
+            continue
+        unit = units[a] if a < len(units) else None
+        mechanism: Any = ax.mechanism
+        if unit is not None:
+            mechanism = with_hardware(load_mechanism(ax.mechanism, suspension=True), unit)
+        out[key] = SuspensionModule(mechanism, mount=config.multibody.mount)
+    return out
 
 
 def vehicle_spec(
@@ -42,7 +98,8 @@ def vehicle_spec(
     corner_modules: tuple = ()
     if fidelity == 'mixed':
         modules = modules or multibody_modules(config)
-        corner_modules = tuple(modules[axles[c.axle].mechanism] for c in lay.corners)
+        keys = module_keys(config)
+        corner_modules = tuple(modules[keys[c.axle]] for c in lay.corners)
     return VehicleSpec(
         layout=lay,
         M=v.chassis_mass,
@@ -60,6 +117,7 @@ def vehicle_spec(
         mount=config.multibody.mount,
         static_load=static_loads(lay, v.chassis_mass, wheel_mass),
         seats=tuple((s.name, s.x, s.y) for s in config.comfort.seats),
+        units=corner_units(config) if any(study_units(config)) else (),
     )
 
 

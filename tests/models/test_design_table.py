@@ -23,9 +23,12 @@ def test_a_name_is_read_once_into_its_identity(name, kind, axle, side):
 
 
 def test_every_spelling_of_a_unit_is_the_same_unit():
+    superscript = str.maketrans('⁰¹²³⁴⁵⁶⁷⁸⁹', '0123456789')
     for kind in KINDS.values():
-        assert kind.units.replace('*', '·') == kind.display
-        assert kind.units.replace('*', ' ') == kind.plain
+        base, _, power = kind.units.partition('**')
+        assert base.replace('*', '·') + power == kind.display.translate(superscript)
+        assert kind.units.replace('**', '^').replace('*', ' ') == kind.plain
+    assert KINDS['k_S3'].display == 'N/m³' and KINDS['bump_k2'].plain == 'N/m^2'
     assert design_heading('c_S1') == 'c_S1 [N·s/m]' and design_heading('k_R2') == 'k_R2 [N·m/rad]'
 
 

@@ -96,7 +96,7 @@ def test_table_and_figure(tmp_path):
     text = curves_table(c)
     lines = text.strip().splitlines()
     assert lines[2] == '| ' + ' | '.join(h for _, h, _ in COLUMNS) + ' |'
-    assert len(lines) == 4 + 5
+    assert len(lines) == 4 + 5 + 2 and lines[-1].startswith('roll centre: ')
     assert '| 0.0000 | 0.0000 | 0.4967 |' in text  # the reference row
     path = plot_curves(c, tmp_path / 'k.png')
     assert path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and path.stat().st_size > 10_000
