@@ -2,6 +2,11 @@
 IPOPT driver (public OpenMDAO API; the one module with private names is
 :mod:`suspopt.driver.structure`)."""
 
-from suspopt.driver.ipopt import IPOPT_STATUS, IpoptDriver, IterationInfo, ipopt_option_problems
+from suspopt.driver.ipopt import (
+    IPOPT_STATUS,
+    IpoptDriver,
+    IterationInfo,
+    ipopt_option_problems,
+)
 
 __all__ = ['IPOPT_STATUS', 'IpoptDriver', 'IterationInfo', 'ipopt_option_problems']

@@ -221,6 +221,7 @@ DRIVER_OPTIONS = {
     'max_iter': 'optimizer.max_iter',
     'tol': 'optimizer.tol',
     'print_level': 'optimizer.print_level',
+    'hessian_approximation': 'optimizer.hessian',
 }
 
 
@@ -229,8 +230,7 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
     name, wrong type, value out of range (set on a throw-away IPOPT problem), an option
     that only fails when IPOPT starts (an unavailable ``linear_solver``: one tiny real
     solve with the options), an ``output_file`` that cannot be written, and options the
-    driver cannot honour (``hessian_approximation = "exact"``: it gives IPOPT no Hessian)
-    or sets itself (:data:`DRIVER_OPTIONS`)."""
+    driver sets itself (:data:`DRIVER_OPTIONS`)."""
     if not options:
         return []
     problems = []
@@ -256,13 +256,7 @@ def ipopt_option_problems(options: dict[str, Any]) -> list[str]:
                     out.seek(0)
                     problems.append(f'{name}: {_ipopt_reason(out.read(), value)}')
                     continue
-            if name == 'hessian_approximation' and value != 'limited-memory':
-                problems.append(
-                    f'{name}: {value!r} needs the Hessian of the Lagrangian, which '
-                    "suspopt's driver does not compute; use 'limited-memory' (the "
-                    'default)'
-                )
-            elif name == 'output_file':
+            if name == 'output_file':
                 problems.extend(_output_file_problems(name, value))
             else:
                 accepted[name] = value

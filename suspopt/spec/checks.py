@@ -17,6 +17,7 @@ from suspopt.road import PROFILES, TWO_TRACKS, CSVRoad, make_road, profile_field
 from suspopt.road.profiles import MAX_FEATURE_HEIGHT
 from suspopt.spec.schema import (
     AGGREGATES,
+    HESSIANS,
     HORIZON_RANGE,
     MAX_NLP_VARIABLES,
     MODELS,
@@ -329,6 +330,12 @@ def _numerics_checks(cfg: StudyConfig) -> list[str]:
     op = cfg.optimizer
     if not 0 <= op.print_level <= 12:
         errs.add('optimizer.print_level', f'must be 0..12 (IPOPT), got {op.print_level}')
+    if op.hessian not in HESSIANS:
+        errs.add(
+            'optimizer.hessian',
+            f'must be one of {", ".join(HESSIANS)}, got {op.hessian!r}'
+            f'{did_you_mean(op.hessian, HESSIANS)}',
+        )
     if op.options:  # checked on IPOPT itself (IPOPT is imported only when needed)
         from suspopt.driver import ipopt_option_problems
 

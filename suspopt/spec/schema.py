@@ -329,13 +329,28 @@ class TranscriptionConfig:
     )
 
 
+#: the Lagrangian's Hessians the driver gives IPOPT: IPOPT's L-BFGS, the exact one
+#: (:mod:`suspopt.driver.hessian`), or the choice by problem size
+#: (``suspopt.transcription.problem.auto_hessian``)
+HESSIANS = ('limited-memory', 'exact', 'auto')
+
+
 @dataclass(frozen=True)
 class OptimizerConfig:
-    """IPOPT settings (defaults: IPOPT's own convergence criteria, L-BFGS Hessian)."""
+    """IPOPT settings (defaults: IPOPT's own convergence criteria; the Hessian by problem
+    size, docs/model.md)."""
 
     max_iter: int = field(default=500, metadata=_check('positive'))
     tol: float = field(default=1e-8, metadata=_check('positive'))
     print_level: int = 0
+    hessian: str = field(
+        default='auto',
+        metadata={
+            'doc': "the Lagrangian's Hessian: 'limited-memory' (IPOPT's L-BFGS), 'exact' "
+            "(second-order adjoints), or 'auto' (exact only where it pays: the "
+            'low-fidelity half car on long grids)'
+        },
+    )
     options: dict[str, Any] = field(default_factory=dict, metadata={'doc': 'raw IPOPT options'})
 
 

@@ -52,7 +52,7 @@ from suspopt.records.solve import (
     best_feasible,
 )
 from suspopt.records.trajectory import Trajectory
-from suspopt.spec.schema import StudyConfig
+from suspopt.spec.schema import HESSIANS, StudyConfig
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
 from suspopt.transcription.phase import build_phase
 from suspopt.transcription.vehicle import multibody_modules, vehicle_assembly
@@ -67,7 +67,6 @@ SolveResult = SolveRecord
 
 
 #: the Hessians of the Lagrangian a problem can give IPOPT
-HESSIANS = ('limited-memory', 'exact', 'auto')
 
 
 #: the fewest segments (over all scenarios) for which ``'auto'`` takes the exact Hessian
@@ -113,7 +112,7 @@ class VehicleProblem:
     hessian : the Hessian of the Lagrangian IPOPT uses (:data:`HESSIANS`):
         ``'limited-memory'`` (IPOPT's L-BFGS), ``'exact'`` (second-order adjoints of the
         model's nonlinear components, :mod:`suspopt.driver.hessian`), or ``'auto'``
-        (:func:`auto_hessian`).
+        (:func:`auto_hessian`); None: the study's ``optimizer.hessian``.
     """
 
     def __init__(
@@ -127,7 +126,7 @@ class VehicleProblem:
         progress: Callable[[IterationInfo], None] | None = None,
         use_cache: bool = True,
         totals: str = 'auto',
-        hessian: str = 'auto',
+        hessian: str | None = None,
     ):
         t0 = time.perf_counter()
         self.config, self.fidelity = config, fidelity
@@ -209,6 +208,8 @@ class VehicleProblem:
             cached = cache.load(self.cache_key) if use_cache else None
             self.coloring_from_cache = cached is not None
             opt = config.optimizer
+            if hessian is None:
+                hessian = config.optimizer.hessian
             if hessian not in HESSIANS:
                 raise ValueError(f'hessian must be one of {HESSIANS}, got {hessian!r}')
             if hessian == 'auto':

@@ -214,7 +214,7 @@ def test_a_tyre_load_pointing_down_or_an_unstable_linkage_is_refused(tmp_path, c
 @pytest.mark.parametrize(
     'option, words',
     [
-        ('hessian_approximation = "exact"', "does not compute; use 'limited-memory'"),
+        ('hessian_approximation = "exact"', 'set optimizer.hessian instead'),
         ('linear_solver = "ma27"', "IPOPT cannot run with 'ma27'"),  # not in the bundled IPOPT
         ('output_file = "no-such-dir/ipopt.out"', 'directory no-such-dir does not exist'),
         ('max_iter = 3', 'set optimizer.max_iter instead'),

@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from suspopt.spec.schema import StudyConfig
-from suspopt.spec.load import config_from_dict, full_car_defaults
 from suspopt.driver import sparsity
 from suspopt.driver.hessian import color_hessian
 from suspopt.driver.propagation import PropagatedTotals, make_totals
 from suspopt.driver.totals import ColoredTotals
+from suspopt.errors import ConfigError
+from suspopt.spec.load import config_from_dict, full_car_defaults
+from suspopt.spec.schema import StudyConfig
 from suspopt.transcription.problem import VehicleProblem
 
 
@@ -299,3 +300,26 @@ def test_hessian_structure_round_trips_through_the_cache(tmp_path, monkeypatch):
         vp.driver.options['hessian_structure'] = given  # another grid's
         vp.problem.run_model()
         assert vp.driver.hessian_structure() is not given
+
+
+@pytest.mark.parametrize('key', ['exact', 'limited-memory'])
+def test_the_study_files_hessian_key_reaches_ipopt(key):
+    """``optimizer.hessian`` of the study file is the driver's Hessian (found: the key
+    did not exist and the driver refused IPOPT's own option)."""
+    config = config_from_dict(
+        {
+            'vehicle': {'model': 'quarter_car'},
+            'maneuver': {'horizon': 0.3},
+            'transcription': {'segments': 6},
+            'optimizer': {'hessian': key},
+        }
+    )
+    scales = tuple(dict.fromkeys(config.terms(), 1.0) for _ in config.scenarios())
+    with VehicleProblem(config, 'low', scales, use_cache=False) as vp:
+        assert vp.hessian == key
+        assert vp.driver.options['hessian'] == key
+
+
+def test_an_unknown_hessian_is_refused_naming_the_key():
+    with pytest.raises(ConfigError, match=r"optimizer.hessian: .*did you mean 'exact'"):
+        config_from_dict({'optimizer': {'hessian': 'exakt'}})
