@@ -138,6 +138,7 @@ def default_config_toml(model: str = 'half_car') -> str:
         f'max_iter = {op.max_iter}',
         f'tol = {tv(op.tol)}',
         f"print_level = {op.print_level}              # IPOPT's own console output (0-12)",
+        f'hessian = {tv(op.hessian)}               # auto | exact | limited-memory',
         'options = {}                   # further IPOPT options, e.g. { mu_strategy = "adaptive" }',
         '',
         '[multibody]                    # finite differences of the black-box module',
