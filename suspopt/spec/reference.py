@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import typing
+from types import SimpleNamespace
 from typing import Any
 
 from suspopt.spec.schema import (
@@ -69,6 +70,8 @@ def _type_name(tp: Any) -> str:
 
 
 def _default(value: Any) -> str:
+    if value is None:
+        return "the kind's"
     if isinstance(value, bool):
         return 'true' if value else 'false'
     if isinstance(value, str):
@@ -126,7 +129,13 @@ def study_file_reference() -> str:
     sections = _rows(StudyConfig, config, '')
     sections.insert(
         next(i for i, (s, _) in enumerate(sections) if s == 'design') + 1,
-        ('design.<name>', _field_rows(DesignVariable, DesignVariable(0.0, 0.0, 0.0))),
+        (
+            'design.<name>',
+            _field_rows(
+                DesignVariable,
+                SimpleNamespace(initial=None, lower=None, upper=None, optimize=True),
+            ),
+        ),
     )
     sections.append(('[[scenario]]', _field_rows(ScenarioConfig, ScenarioConfig())))
     for section, rows in sections:

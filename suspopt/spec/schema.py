@@ -154,7 +154,9 @@ class AxleConfig:
 class VehicleConfig:
     """The car: the half car of SPEC §2 (paper Table 1) or a full car."""
 
-    model: str = 'half_car'
+    model: str = field(
+        default='half_car', metadata={'doc': 'quarter_car | half_car | full_car (the dofs)'}
+    )
     chassis_mass: float = field(
         default=1414.0,
         metadata=_plausible(
@@ -214,10 +216,10 @@ class ManeuverConfig:
 class DesignVariable:
     """One design variable: initial value and bounds; ``optimize = false`` holds it fixed."""
 
-    initial: float
-    lower: float
-    upper: float
-    optimize: bool = True
+    initial: float = field(metadata={'doc': 'start value (SI units of the variable)'})
+    lower: float = field(metadata={'doc': 'lower bound'})
+    upper: float = field(metadata={'doc': 'upper bound'})
+    optimize: bool = field(default=True, metadata={'doc': 'false: held at `initial`'})
 
 
 #: default (initial, lower, upper) by kind: spring rate [N/m], damping [N s/m], anti-roll
@@ -257,12 +259,15 @@ class DesignConfig:
     """The design variables by name (paper Table 3 for the half car), per axle or, with
     ``per_corner`` (full car), per corner."""
 
-    per_corner: bool = False
+    per_corner: bool = field(
+        default=False, metadata={'doc': 'full car: one variable per corner (k_S1L ...)'}
+    )
     variables: dict[str, DesignVariable] = field(
         default_factory=lambda: {
             n: DesignVariable(*DESIGN_DEFAULTS[design_kind(n)])
             for n in ('k_S1', 'k_S2', 'c_S1', 'c_S2')
-        }
+        },
+        metadata={'doc': 'the variables by name: the `[design.<name>]` tables below'},
     )
 
     @property
@@ -306,9 +311,18 @@ class ObjectiveConfig:
     their objectives: ``sum`` (Σ w_s f_s) or ``max`` (the worst case, in epigraph form)."""
 
     weights: dict[str, float] = field(default_factory=dict)
-    normalization: str = 'reference'
+    normalization: str = field(
+        default='reference',
+        metadata={
+            'doc': 'reference (s_k: J_k at the initial design), paper (its scales) or '
+            'custom (`scales`)'
+        },
+    )
     scales: dict[str, float] = field(default_factory=dict)
-    aggregate: str = 'sum'
+    aggregate: str = field(
+        default='sum',
+        metadata={'doc': 'scenarios combined: sum (Σ w_s f_s) or max (the worst case)'},
+    )
 
 
 # ---------------------------------------------------------------------------- the rest
@@ -318,7 +332,9 @@ class TranscriptionConfig:
     a number or ``"auto"`` (:func:`suspopt.transcription.grid.auto_segments`)."""
 
     segments: Any = field(default=80, metadata={'doc': 'uniform segments, or "auto"'})
-    order: int = field(default=5, metadata=_check('positive'))
+    order: int = field(
+        default=5, metadata=_check('positive', doc='Radau nodes per segment (the paper: 5)')
+    )
     initial_guess: str = field(
         default='auto',
         metadata={
@@ -340,9 +356,11 @@ class OptimizerConfig:
     """IPOPT settings (defaults: IPOPT's own convergence criteria; the Hessian by problem
     size, docs/model.md)."""
 
-    max_iter: int = field(default=500, metadata=_check('positive'))
-    tol: float = field(default=1e-8, metadata=_check('positive'))
-    print_level: int = 0
+    max_iter: int = field(default=500, metadata=_check('positive', doc="IPOPT's iteration limit"))
+    tol: float = field(
+        default=1e-8, metadata=_check('positive', doc="IPOPT's convergence tolerance")
+    )
+    print_level: int = field(default=0, metadata={'doc': "IPOPT's own console output (0-12)"})
     hessian: str = field(
         default='auto',
         metadata={
@@ -359,7 +377,10 @@ class MultibodyConfig:
     """Finite differencing of the black-box multibody module, and how its frame is
     coupled to the chassis (``mount``, see :mod:`suspopt.multibody.suspension`)."""
 
-    fd_form: str = 'forward'
+    fd_form: str = field(
+        default='forward',
+        metadata={'doc': "black box's finite differences: forward | central"},
+    )
     fd_step: float = field(
         default=1e-6,
         metadata=_plausible(
@@ -464,13 +485,15 @@ class ConstraintsConfig:
 class ScenarioConfig:
     """One load case: a road driven at a speed for a horizon on a grid, with a weight."""
 
-    name: str = ''
-    weight: float = 1.0
-    speed: float = 0.0
-    horizon: float = 0.0
-    road: dict[str, Any] = field(default_factory=dict)
-    segments: Any = 0
-    order: int = 0
+    name: str = field(default='', metadata={'doc': 'its name in tables (default: its index)'})
+    weight: float = field(default=1.0, metadata={'doc': 'w_s with aggregate = "sum"'})
+    speed: float = field(default=0.0, metadata={'doc': "[m/s] (0: the maneuver's)"})
+    horizon: float = field(default=0.0, metadata={'doc': "[s] (0: the maneuver's)"})
+    road: dict[str, Any] = field(
+        default_factory=dict, metadata={'doc': "a road table (empty: the study's road)"}
+    )
+    segments: Any = field(default=0, metadata={'doc': "grid (0: the transcription's)"})
+    order: int = field(default=0, metadata={'doc': "Radau order (0: the transcription's)"})
 
 
 @dataclass(frozen=True)
