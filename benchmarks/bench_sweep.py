@@ -4,8 +4,8 @@ serially in one process, measured side by side in one run.
     python benchmarks/bench_sweep.py [--tasks 16] [--workers 2] [--segments 80]
                                      [--starts fork,spawn]
 
-The tasks: a multistart of low-fidelity optimizations of the paper's case (SPEC
-defaults: default car and road, `reference` normalization, 80 x 5 grid), Latin-hypercube
+The tasks: a multistart of low-fidelity optimizations of the paper's case
+(default car and road, `reference` normalization, 80 x 5 grid), Latin-hypercube
 starts over the design box. Serial: `run_task` on each task's plain description in this
 process, one after the other (the same function a worker runs, writing the same result
 and recorder files). Sweep: `run_sweep` on a LocalCluster, end to end (cluster start and

@@ -1,13 +1,13 @@
 """Benchmark peer: suspopt's low-fidelity problem written by hand in CasADi.
 
 This is what an engineer would write *instead of* using suspopt: a direct collocation
-of the half car (paper eqs. 5-10, SPEC §2) with the weighted objective of paper eq. 4
-(SPEC §5), solved by IPOPT through ``casadi.nlpsol``. Nothing of suspopt's model,
+of the half car (paper eqs. 5-10, docs/model.md) with the weighted objective of paper eq. 4
+(docs/model.md), solved by IPOPT through ``casadi.nlpsol``. Nothing of suspopt's model,
 transcription or driver is used; only the road profile is taken from suspopt
 (``suspopt.road.wheel_road_inputs``), because the road is data, not model, and the
 ``reference`` objective scales (``suspopt.verification.timemarching.reference_scales``) are an input.
 
-Model (SPEC §2, paper eqs. 5-10), states x = [z_C, v_C, θ_C, ω_C, z_W1, v_W1, z_W2, v_W2]::
+Model (docs/model.md, paper eqs. 5-10), states x = [z_C, v_C, θ_C, ω_C, z_W1, v_W1, z_W2, v_W2]::
 
     M  z̈_C  =  F_S1 + F_S2                                   (5)
     I  θ̈_C  = -a1 F_S1 - a2 F_S2                             (6)
@@ -17,7 +17,7 @@ Model (SPEC §2, paper eqs. 5-10), states x = [z_C, v_C, θ_C, ω_C, z_W1, v_W1,
 
 from the zero state at t = 0 over T = 5 s, with δ_1(t) = r(v t), δ_2(t) = r(v t - L).
 
-Objective (paper eq. 4, SPEC §5)::
+Objective (paper eq. 4, docs/model.md)::
 
     f = Σ_k w_k J_k / s_k,  w_k = 0.25,
     J_1 = ∫ z̈_C² dt,  J_2 = ∫ θ̈_C² dt,  J_3 = ∫ z_W1² dt,  J_4 = ∫ z_W2² dt.
@@ -82,7 +82,7 @@ from suspopt.road import wheel_road_inputs
 from suspopt.spec.schema import StudyConfig
 from suspopt.verification.timemarching import reference_scales
 
-# ---------------------------------------------------------------- problem data (SPEC §1-§5)
+# ---------------------------------------------------------------- problem data (docs/model.md)
 A1, A2 = 1.271, -1.713  # axle positions a_i [m] (+ ahead of the CG)
 M_C, I_C = 1414.0, 2782.0  # chassis mass [kg] and pitch inertia [kg m^2]
 M_W = (120.0, 120.0)  # wheel masses m_i [kg]
@@ -199,7 +199,7 @@ def half_car_function():
 
 
 def road_inputs(t: np.ndarray) -> np.ndarray:
-    """δ_1(t), δ_2(t) of the default study road (SPEC §4), from suspopt (data only)."""
+    """δ_1(t), δ_2(t) of the default study road (docs/roads.md), from suspopt (data only)."""
     road = StudyConfig().road_profile()
     heights, _ = wheel_road_inputs(road, t, SPEED, (0.0, WHEELBASE))
     return heights

@@ -1,4 +1,4 @@
-"""Collocation against time marching on several grids (SPEC §6; the default-grid choice).
+"""Collocation against time marching on several grids (docs/model.md; the default-grid choice).
 
     python benchmarks/grid_convergence.py [--grids 16x5 32x5 64x5 80x5 64x6 96x5] [--mixed]
     python benchmarks/grid_convergence.py --mechanism double_wishbone,macpherson
@@ -13,7 +13,7 @@ mixed-fidelity model with the configured mechanisms; ``--mechanism`` measures th
 mixed-fidelity model once per listed mechanism (built-in name or TOML path, on both
 axles) instead, and ``--optimum`` adds that topology's own mixed-fidelity optimum
 (optimized on the default grid from the low-fidelity optimum) to the designs. The last
-columns name the worst term and say whether the grid meets SPEC's 0.1 % on every J_k at
+columns name the worst term and say whether the grid meets the 0.1 % tolerance on every J_k at
 every design measured.
 """
 
@@ -45,7 +45,7 @@ DESIGNS = {
 }
 #: with --mechanism: the fourth corner too (softest, most damped)
 EXTRA = {'soft, heavy damping': {'k_S1': 1e4, 'k_S2': 1e4, 'c_S1': 5e3, 'c_S2': 5e3}}
-#: SPEC §6: collocation and time marching within this on every J_k
+#: docs/model.md: collocation and time marching within this on every J_k
 CRITERION = 1e-3
 
 

@@ -27,7 +27,7 @@ def _isolated_outputs(tmp_path_factory):
 
 @pytest.fixture(scope='session')
 def cfg() -> StudyConfig:
-    """The default study (SPEC)."""
+    """The default study (the paper's case)."""
     return StudyConfig()
 
 

@@ -2,7 +2,7 @@
 suspension load added.
 
 The vehicle applies the suspension through the mechanism's spring-damper element
-(:mod:`suspopt.multibody.suspension`); the solver tests of the paper's module (SPEC §3)
+(:mod:`suspopt.multibody.suspension`); the solver tests of the paper's module (docs/model.md)
 drive the linkage with a given suspension force instead: a point load ``suspension`` of
 magnitude ``F_S`` pointing down at the spring's linkage-end marker, as the shipped files
 carried before the element library (paper Table 2's ``p_FS``)."""

@@ -179,7 +179,7 @@ def parse_design(text: str, flag: str, config: StudyConfig) -> dict[str, float]:
 
 
 def study_config(args: argparse.Namespace) -> StudyConfig:
-    """The study description: the file (or SPEC defaults), then command-line overrides."""
+    """The study description: the file (or the paper's defaults), then command-line overrides."""
     cfg = load_config(args.config) if args.config else StudyConfig()
     data = cfg.to_dict()
     if cfg.vehicle.model == 'quarter_car':  # keys the round trip writes and a quarter car refuses

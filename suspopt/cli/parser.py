@@ -45,7 +45,7 @@ def _common(
     p.add_argument(
         '--normalization',
         choices=('reference', 'paper'),
-        help='objective normalization (SPEC §5); default: from the config',
+        help='objective normalization (docs/model.md); default: from the config',
     )
     if grid:
         p.add_argument('--segments', metavar='N', help='collocation segments, or "auto"')

@@ -6,7 +6,7 @@ time-marching evaluator (:mod:`suspopt.verification.timemarching`) calls them di
 integrators integrate the same model. Per-wheel arrays have the corners on their last
 axis (:mod:`suspopt.models.layout`); the half car is the two-corner case.
 
-Sign conventions (SPEC §2): ``z`` up, pitch ``θ`` positive nose down, roll ``φ`` positive
+Sign conventions (docs/model.md): ``z`` up, pitch ``θ`` positive nose down, roll ``φ`` positive
 left side up, ``a`` forward from the chassis CG, ``y`` to its left.
 """
 

@@ -7,7 +7,7 @@ only heaves; the half car of the paper has two corners on one wheel track (``1``
 ``2`` rear axle, paper eqs. 5-10) under a chassis that heaves and pitches; the full car has
 four on two tracks (``1L``, ``1R``, ``2L``, ``2R``) under a chassis that also rolls.
 
-Sign conventions (SPEC §2, extended): z up; pitch θ positive nose down; roll φ positive
+Sign conventions (docs/model.md, extended): z up; pitch θ positive nose down; roll φ positive
 left side up; ``a`` measured forward from the chassis centre of gravity (``a < 0`` at the
 rear axle), ``y`` to the left of it. The chassis point above corner c moves by
 ``z_C - a_c θ_C + y_c φ_C``.

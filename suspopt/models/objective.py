@@ -42,7 +42,7 @@ class ObjectiveQuadratureComp(om.ExplicitComponent):
 
 
 class WeightedObjectiveComp(om.ExplicitComponent):
-    """The scalar objective ``f = Σ_k w_k J_k / s_k`` (eq. 4 with SPEC §5 normalization).
+    """The scalar objective ``f = Σ_k w_k J_k / s_k`` (eq. 4 with docs/model.md normalization).
 
     Weights and scales are inputs, not options, so one built problem serves every
     weighting (Pareto sweeps) and normalization without a new setup or coloring.

@@ -1,5 +1,5 @@
 """The road-input component: the road height under every wheel at the node times
-(SPEC §4, paper Figure 3)."""
+(docs/roads.md, paper Figure 3)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from suspopt.road import wheel_road_inputs
 
 
 class RoadInputComp(om.ExplicitComponent):
-    """Road height under every wheel, ``δ_c(t) = r_track(c)(v t - offset_c)`` (SPEC §4), an
+    """Road height under every wheel, ``δ_c(t) = r_track(c)(v t - offset_c)`` (docs/roads.md), an
     output of shape (num_nodes, corners).
 
     The node times are fixed in a study (fixed horizon), so the heights and their time

@@ -190,7 +190,7 @@ class NodewiseBlackBox(om.ExplicitComponent):
 class SuspensionKinematicsComp(NodewiseBlackBox):
     """Position/velocity analysis of every corner's module (black box, FD partials).
 
-    ``z_W`` is a module's independent coordinate (wheel travel, SPEC §3); outputs are the
+    ``z_W`` is a module's independent coordinate (wheel travel, docs/model.md); outputs are the
     vertical displacement and velocity of the wheel (``q^z_W``, eq. 13), measured from the
     reference pose; all (nodes, corners).
     """

@@ -53,7 +53,7 @@ from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
 #: spring rate used when neither the caller nor the file gives one: the initial k_S of
-#: the study (SPEC §1)
+#: the study (docs/model.md)
 DEFAULT_SPRING_RATE = 30000.0
 #: an instant centre farther than this from the body [m] is at infinity (a translating
 #: wheel, its rotation rate zero to rounding)

@@ -1,4 +1,4 @@
-"""Planar mechanisms described as data (paper §3.2-3.3, Table 2; SPEC §3).
+"""Planar mechanisms described as data (paper §3.2-3.3, Table 2; docs/model.md).
 
 A mechanism is rigid bodies with body coordinates ``q = (x, z, φ)`` (x lateral, z up,
 φ the rotation about the out-of-plane axis), joints (``[[joints]]``, chosen by ``type``:
@@ -115,7 +115,7 @@ class Mechanism:
         }
 
 
-#: Vehicle-interface roles a suspension mechanism file must assign (SPEC §3).
+#: Vehicle-interface roles a suspension mechanism file must assign (docs/model.md).
 SUSPENSION_ROLES = {
     'wheel_marker': 'marker whose vertical displacement is q^z_W (tyre spring, eq. 13)',
     'tyre_load': 'load that carries +F_T (direction points up)',

@@ -1,4 +1,4 @@
-"""Planar multibody dynamics in the augmented form (paper eq. 11, SPEC §3).
+"""Planar multibody dynamics in the augmented form (paper eq. 11, docs/model.md).
 
 Body coordinates ``q = (x, z, φ)`` per body, CG-based, so the mass matrix
 ``M = diag(m, m, I)`` is constant and there are no quadratic-velocity inertia forces

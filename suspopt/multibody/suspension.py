@@ -1,4 +1,4 @@
-"""The vehicle-facing interface of a suspension mechanism (SPEC §3, paper eqs. 11-13).
+"""The vehicle-facing interface of a suspension mechanism (docs/model.md, paper eqs. 11-13).
 
 One :class:`SuspensionModule` per mechanism wraps a :class:`PlanarMultibodySolver` and
 maps the vehicle's quantities onto the mechanism's roles (its ``[suspension]`` table):
@@ -14,7 +14,7 @@ the spring's tension is ``f = k (ℓ - ℓ0 + e_z z_M) + c (ℓ̇ + e_z v_M)``, 
 the linkage, and the chassis receives its vertical component ``F_S = -f e_z`` (up). For a
 vertical spring (the double wishbones) this is exactly eq. 12,
 ``F_S = k (q^z_U - z_M) + c (q̇^z_U - v_M)``. With ``mount = 'ground'`` the frame stays
-fixed to the ground (the paper's coupling, SPEC §3).
+fixed to the ground (the paper's coupling, docs/model.md).
 
 With ``mount = 'chassis'`` the frame is the chassis at this corner: the mechanism's one
 fixed body becomes a prescribed body (a rheonomic joint, :mod:`~suspopt.multibody.elements

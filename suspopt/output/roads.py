@@ -3,7 +3,7 @@ another tool can rebuild exactly what the models saw (``docs/roads.md``):
 
 * ``road_<scenario>.csv`` — every wheel's distance along its track and the road height
   under it at every collocation node: ``t``, then ``s_<corner>``, ``r_<corner>`` per
-  corner (``δ_c(t) = r(v t - offset_c)``, SPEC §4);
+  corner (``δ_c(t) = r(v t - offset_c)``, docs/roads.md);
 * ``road_<scenario>_<track>_profile.csv`` — a generated profile (ISO 8608) on its
   synthesis grid (``distance,height``, the points its cubic spline passes through) over
   the distance driven, and ``road_<scenario>_<track>_lines.csv``, its cosines

@@ -1,15 +1,15 @@
-"""Road profiles (SPEC §4, paper Figure 3); the model's road input is
+"""Road profiles (docs/roads.md, paper Figure 3); the model's road input is
 :class:`suspopt.models.road_input.RoadInputComp`.
 
 A road profile is a height ``r(s)`` [m] along the travelled distance ``s`` [m], with its
 slope ``r'(s)``. The vehicle drives at constant speed ``v``; the front wheel sees
 ``δ_1(t) = r(v t)`` and the rear wheel, a wheelbase ``L = a1 - a2`` behind it,
-``δ_2(t) = r(v t - L)`` (SPEC §4). Every profile is a frozen dataclass built from a plain
+``δ_2(t) = r(v t - L)`` (docs/roads.md). Every profile is a frozen dataclass built from a plain
 dictionary (:func:`make_road`), so a study description stays serializable.
 
 Built-in profiles (``profile = ...`` in the study file):
 
-``two_bumps``  the default of SPEC §4: 1-cos bumps of height ``h``, length ``ℓ``, at ``starts``.
+``two_bumps``  the default of docs/roads.md: 1-cos bumps of height ``h``, length ``ℓ``, at ``starts``.
 ``bump``       a single 1-cos bump.
 ``step``       a smoothed step of height ``h`` rising over ``ramp_length`` from ``position``.
 ``iso8608``    a random road of an ISO 8608 class (A-H) and seed, as a sum of cosines.
@@ -226,7 +226,7 @@ class ISO8608Road(RoadProfile):
     points) and interpolated by a cubic spline (C², so no breakpoints): evaluating it costs
     the same whatever the number of cosines. ``n_max`` defaults to 1 cycle/m (10 Hz at
     10 m/s). The first ``fade_in`` metres fade in with a half-cosine window (applied to the
-    samples) so that the zero initial state of SPEC §1 is consistent; before the road
+    samples) so that the zero initial state of docs/model.md is consistent; before the road
     starts (the rear wheel at t = 0) it is flat at zero.
     """
 
@@ -574,7 +574,7 @@ def road_tracks(
 def wheel_road_inputs(
     road: RoadProfile, t: ArrayLike, speed: float, offsets: tuple[float, ...], rates: bool = True
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Road heights and rates under each wheel: ``δ_i(t) = r(v t - offset_i)`` (SPEC §4).
+    """Road heights and rates under each wheel: ``δ_i(t) = r(v t - offset_i)`` (docs/roads.md).
 
     Returns arrays of shape ``(len(offsets),) + shape(t)``: heights [m] and rates [m/s]
     (None unless ``rates``).

@@ -152,7 +152,7 @@ class AxleConfig:
 
 @dataclass(frozen=True)
 class VehicleConfig:
-    """The car: the half car of SPEC §2 (paper Table 1) or a full car."""
+    """The car: the half car of docs/model.md (paper Table 1) or a full car."""
 
     model: str = field(
         default='half_car', metadata={'doc': 'quarter_car | half_car | full_car (the dofs)'}
@@ -201,7 +201,7 @@ class VehicleConfig:
 
 @dataclass(frozen=True)
 class ManeuverConfig:
-    """Constant-speed drive over the road for the time horizon (SPEC §1, §4)."""
+    """Constant-speed drive over the road for the time horizon (docs/model.md)."""
 
     speed: float = field(
         default=10.0, metadata={'range': SPEED_RANGE, 'check': 'positive', 'doc': 'v [m/s]'}
@@ -305,7 +305,7 @@ def default_weights(layout: VehicleLayout) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class ObjectiveConfig:
-    """``f = Σ w_k J_k / s_k`` (SPEC §5). ``normalization``: ``reference`` (s_k = J_k of the
+    """``f = Σ w_k J_k / s_k`` (docs/model.md). ``normalization``: ``reference`` (s_k = J_k of the
     low-fidelity model at the initial design, by time marching), ``paper`` (0.1, 0.01, 1, 1;
     half car) or ``custom`` (``scales`` given). With several scenarios, ``aggregate`` combines
     their objectives: ``sum`` (Σ w_s f_s) or ``max`` (the worst case, in epigraph form)."""
@@ -328,7 +328,7 @@ class ObjectiveConfig:
 # ---------------------------------------------------------------------------- the rest
 @dataclass(frozen=True)
 class TranscriptionConfig:
-    """Dymos Radau collocation grid (SPEC §6) and the states' initial guess. ``segments`` is
+    """Dymos Radau collocation grid (docs/model.md) and the states' initial guess. ``segments`` is
     a number or ``"auto"`` (:func:`suspopt.transcription.grid.auto_segments`)."""
 
     segments: Any = field(default=80, metadata={'doc': 'uniform segments, or "auto"'})
@@ -498,7 +498,7 @@ class ScenarioConfig:
 
 @dataclass(frozen=True)
 class StudyConfig:
-    """Everything a study needs; the defaults reproduce SPEC exactly."""
+    """Everything a study needs; the defaults reproduce the paper's case."""
 
     vehicle: VehicleConfig = field(default_factory=VehicleConfig)
     maneuver: ManeuverConfig = field(default_factory=ManeuverConfig)

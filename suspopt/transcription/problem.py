@@ -1,4 +1,4 @@
-"""The NLP of a study: every scenario's phase sharing one design (paper eq. 14; SPEC §5-§6).
+"""The NLP of a study: every scenario's phase sharing one design (paper eq. 14; docs/model.md).
 
 :class:`VehicleProblem` builds, from a :class:`~suspopt.spec.schema.StudyConfig`, one Dymos
 trajectory with one Radau phase per scenario (:mod:`suspopt.transcription.phase`),
@@ -245,7 +245,9 @@ class VehicleProblem:
                 p.set_val(f'objective_{i}.scales', np.array([s[t] for t in self.terms_names]))
             for phase, sc in zip(self.phases, self.scenarios):
                 phase.set_time_val(initial=0.0, duration=sc.horizon)
-            self.set_initial_guess(None)  # Dymos' default state value is 1, not SPEC's zero
+            self.set_initial_guess(
+                None
+            )  # Dymos' default state value is 1, not the zero initial state
             p.final_setup()
             for phase, sc in zip(self.phases, self.scenarios):
                 grid = phase.options['transcription'].grid_data
@@ -290,7 +292,7 @@ class VehicleProblem:
     def set_initial_guess(self, trajs: list[Trajectory | None] | Trajectory | None) -> None:
         """Initialize the discretized states of every scenario from a trajectory (or zeros).
 
-        The first node is the fixed initial state and is always zero (SPEC §1), whatever
+        The first node is the fixed initial state and is always zero (docs/model.md), whatever
         the guess starts from."""
         if not isinstance(trajs, (list, tuple)):
             trajs = [trajs] * len(self.scenarios)

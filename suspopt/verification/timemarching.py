@@ -112,7 +112,7 @@ def simulate(
     atol: float = 1e-11,
     modules: dict | None = None,
 ) -> Trajectory:
-    """Integrate a model from the zero initial state over a scenario's horizon (SPEC §1).
+    """Integrate a model from the zero initial state over a scenario's horizon (docs/model.md).
 
     ``design`` defaults to the configured initial design. Returns the trajectory at
     ``t_eval`` (default: 2001 points) with states, accelerations, forces and road inputs,
@@ -181,7 +181,7 @@ def simulate(
 
 def reference_scales(config: StudyConfig) -> Scales:
     """``s_k`` of the ``reference`` normalization, per scenario: J_k of the low-fidelity
-    model at the initial design by accurate time marching (SPEC §5)."""
+    model at the initial design by accurate time marching (docs/model.md)."""
     out = []
     terms = config.terms()
     weights = config.objective.weights

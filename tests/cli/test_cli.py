@@ -143,7 +143,7 @@ def test_study_same_with_default_file_and_report_rerenders(tmp_path, capsys):
     re-renders the same table from the recorded data alone."""
     assert main(['init', str(tmp_path / 'case.toml')]) == 0
     a, b = tmp_path / 'a', tmp_path / 'b'
-    # 30 x 5 is too coarse for the default road (SPEC §6): the study says so, exit 3
+    # 30 x 5 is too coarse for the default road (docs/model.md): the study says so, exit 3
     assert main(['study', '--segments', '30', '--out', str(a)]) == 3
     stderr = capsys.readouterr().err
     assert 'not verified: collocation and time marching differ by' in stderr
@@ -258,7 +258,7 @@ def test_road_that_excites_nothing_is_bad_input(tmp_path, capsys):
 
 def test_start_moves_ipopt_not_the_normalization(tmp_path, capsys):
     """`--start` only says where IPOPT starts: the reference scales stay the J_k of the
-    study's initial design (SPEC §5), so every start minimizes the same f and finds the
+    study's initial design (docs/model.md), so every start minimizes the same f and finds the
     same optimum."""
     from suspopt.spec.schema import StudyConfig
     from suspopt.verification.scales import resolve_scales

@@ -303,7 +303,7 @@ def test_sparsity_check_fails_on_a_component_missing_a_nonzero():
 
 
 def test_road_profiles_match_formula():
-    """SPEC §4: two 1-cos bumps, h = 0.05, l = 2, at 5 and 10 m; rear wheel a wheelbase behind."""
+    """docs/roads.md: two 1-cos bumps, h = 0.05, l = 2, at 5 and 10 m; rear wheel a wheelbase behind."""
     road = CosineBumps()
     s = np.array([0.0, 5.0, 6.0, 7.0, 8.0, 11.0, 12.5])
     expected = np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.05, 0.0])
@@ -353,7 +353,7 @@ def test_radau_quadrature_is_exact_for_polynomials(segments, order):
 
 
 def test_quadrature_equals_a_dymos_integrated_state():
-    """SPEC §5 accumulates J_k as integrated states (rate = integrand). The objective's
+    """docs/model.md accumulates J_k as integrated states (rate = integrand). The objective's
     quadrature is the same number: a Dymos Radau state x' = g(t) (collocation equations
     solved by Dymos' own Newton solver) ends at exactly ``weights @ g(nodes)``."""
     import dymos as dm

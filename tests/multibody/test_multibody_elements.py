@@ -541,7 +541,7 @@ def _dw_data() -> dict:
 def test_spring_element_reproduces_the_suspension_point_load(name):
     """The shipped vertical spring element with k, c supplied per call gives the same q̈
     and joint multipliers as today's point load -F_S with F_S = k q^z_U + c q̇^z_U on the
-    spring point (SPEC §3, chassis at rest); only the frame's weld multipliers differ, by
+    spring point (docs/model.md, chassis at rest); only the frame's weld multipliers differ, by
     the spring's force and moment on the frame."""
     s = PlanarMultibodySolver(with_suspension_load(name))
     rng = np.random.default_rng(8)

@@ -1,6 +1,6 @@
 """Kinematic curves (``suspopt.multibody.kinematics``) and the ``suspopt kinematics`` command.
 
-* Double wishbone (a parallelogram, SPEC §3): motion ratio 0.15 / 0.33 at every travel,
+* Double wishbone (a parallelogram, docs/model.md): motion ratio 0.15 / 0.33 at every travel,
   no camber, the track change of the arms' arc ``LA (cos θ - 1)``, ``sin θ = w / LA``, and
   the wheel rate ``k MR²``.
 * All three linkages: the wheel rate is the solver's static force per travel. A vertical

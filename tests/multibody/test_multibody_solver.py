@@ -1,6 +1,6 @@
 """Validation of the planar multibody solver (``suspopt.multibody``) on the double wishbone.
 
-The suspension of SPEC §3 is a parallelogram four-bar: the frame F (fixed) is the ground
+The suspension of docs/model.md is a parallelogram four-bar: the frame F (fixed) is the ground
 link, U and L are the two arms (pivot-to-outer-joint length ``LA = 0.45 - 0.12 = 0.33`` m,
 centre of gravity ``a = 0.27 - 0.12 = 0.15`` m from the pivot) and the wheel W is the
 coupler. Hence, exactly and for any travel,

@@ -17,7 +17,7 @@ constructions that share no code with the multibody solver.
 * The wheel rate and wheel force of the double wishbone with a bump stop, against the
   closed form ``K = F'(m w) m²``, ``F_w = F(m w) m`` (``m`` the constant motion ratio).
 
-The linkages' numbers are typed in here from their files (SPEC §3, the files' headers).
+The linkages' numbers are typed in here from their files (docs/model.md, the files' headers).
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ from suspopt.multibody.suspension import SuspensionModule
 from suspopt.spec.load import config_from_dict, full_car_defaults
 from suspopt.verification.timemarching import VehicleRHS
 
-#: double wishbone of SPEC §3 / paper Table 2, by hand: arm length (pivot to pivot), the
+#: double wishbone of docs/model.md / paper Table 2, by hand: arm length (pivot to pivot), the
 #: arm CG's and the spring point's distance from the frame pivot
 ARM, ARM_CG = 0.45 - 0.12, 0.27 - 0.12
 M_W, M_ARM, I_ARM = 80.0, 20.0, 0.15

@@ -43,7 +43,7 @@ def test_optimum_converged(cfg, low_optimum):
 
 @pytest.mark.parametrize('where', ['initial', 'optimum'])
 def test_collocation_matches_time_marching(cfg, scales, low_optimum, where):
-    """SPEC §6 / paper §4.2: every J_k within 0.1 % on the default grid, trajectories overlay."""
+    """docs/model.md / paper §4.2: every J_k within 0.1 % on the default grid, trajectories overlay."""
     design = cfg.design.initial() if where == 'initial' else low_optimum.design
     with VehicleProblem(cfg, 'low', scales) as vp:
         res = evaluate(cfg, 'low', design, scales=scales, problem=vp)
@@ -58,7 +58,7 @@ def test_collocation_matches_time_marching(cfg, scales, low_optimum, where):
 
 
 def test_paper_grid_is_inaccurate(cfg, scales):
-    """The paper's 16 x 5 grid does not reproduce time marching on this road (SPEC §6)."""
+    """The paper's 16 x 5 grid does not reproduce time marching on this road (docs/model.md)."""
     coarse = cfg.replace(transcription=dataclasses.replace(cfg.transcription, segments=16))
     res = evaluate(coarse, 'low', scales=scales, guess=None)
     assert abs(res.objective - 1.0) > 0.05  # f = 1 exactly by time marching
@@ -160,7 +160,7 @@ def test_zero_start_with_fresh_coloring_reaches_same_optimum(
 ):
     """The FINDINGS pitfall: at all-zero states dF_S/dk = 0. With the coloring computed
     right there (empty cache) and zero states, IPOPT must still reach the same optimum
-    and the initial state must stay the zero state of SPEC §1."""
+    and the initial state must stay the zero state of docs/model.md."""
     monkeypatch.setenv('SUSPOPT_CACHE_DIR', str(tmp_path))
     zero = cfg.replace(transcription=dataclasses.replace(cfg.transcription, initial_guess='zero'))
     with VehicleProblem(zero, 'low', scales) as vp:

@@ -5,7 +5,7 @@ Three linkages. The MacPherson strut (``macpherson``, at the end of this file): 
 along it) and three ``ObjectJointRevolute2D``, its numbers typed in here; compared are
 the upright's trajectory (x, z, rotation), the spring tension and all joint reactions.
 
-Two double wishbones: the double wishbone of SPEC §3 (a parallelogram: the upright translates)
+Two double wishbones: the double wishbone of docs/model.md (a parallelogram: the upright translates)
 and the short-long-arm variation shipped as ``sla_double_wishbone`` (the upright
 rotates: camber gain). Each is built in Exudyn from its numbers typed into this file (not
 from suspopt's data structures): three planar rigid bodies (``NodeRigidBody2D`` +
@@ -91,7 +91,7 @@ def tyre_force(t: float) -> float:
     return F_PEAK * math.sin(math.pi * t / T_PULSE) ** 2 if t < T_PULSE else 0.0
 
 
-#: The linkages, typed in from their numbers (SPEC §3 for the double wishbone; the SLA
+#: The linkages, typed in from their numbers (docs/model.md for the double wishbone; the SLA
 #: variation's file header), not read from suspopt's files: body -> (mass, inertia, CG);
 #: joints (body, body or 'ground', point); the body whose CG carries the spring; the
 #: index of that body's z in suspopt's coordinates (x, z, φ per body, file order).

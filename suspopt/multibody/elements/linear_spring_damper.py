@@ -8,7 +8,7 @@ along the axis from marker 0 to marker 1,
 ``+f n`` on body 0, ``n = A(φ_0) ā``. ``Q = -∂V/∂q`` of ``V = ½ k (ℓ - ℓ0)²``, so body 0's
 force acts on the line through ``p_1``; Exudyn's element applies it at ``p_0`` and takes
 ``ℓ̇`` without the axis' rotation. Both are the same when body 0 does not rotate (a fixed
-or translating frame, e.g. the vertical suspension spring of SPEC §3, which with the
+or translating frame, e.g. the vertical suspension spring of docs/model.md, which with the
 spring point on the arm as end 1 gives the point load ``-F_S`` of paper eq. 12 there,
 ``F_S = k q^z_U + c q̇^z_U``). ``ℓ0`` defaults to the reference value of ``ℓ``, which must
 be > 0: the axis points from marker 0 towards marker 1.

@@ -1,5 +1,5 @@
 """Point load: a force of run-time magnitude along a fixed global unit direction, at a
-marker (``F_e`` of paper eq. 11; SPEC §3's ``-F_S`` and ``+F_T``):
+marker (``F_e`` of paper eq. 11; docs/model.md's ``-F_S`` and ``+F_T``):
 
     Q_b = [ F ;  (A(φ_b) u) × F ],    F = magnitude · direction
 """
