@@ -42,7 +42,9 @@ def main(argv: list[str] | None = None) -> int:
         return exit_code(err)
     if getattr(args, 'command', None) == 'optimize' and not args.out:
         args.out = f'results/optimize-{args.fidelity}'
-    _quiet_libraries()
+    from suspopt.studies.run import quiet_libraries
+
+    quiet_libraries()  # OpenMDAO's and Dymos' warnings about their internals
     try:
         with interrupts.handling():  # SIGINT and SIGTERM alike (suspopt.interrupts)
             return int(args.func(args))
@@ -87,21 +89,6 @@ def _printable_output() -> None:
                 reconfigure(errors='backslashreplace')
             except (ValueError, OSError):  # pragma: no cover - a closed or odd stream
                 pass
-
-
-def _quiet_libraries() -> None:
-    """OpenMDAO/Dymos warnings about their own internals are noise for a user."""
-    import warnings
-
-    warnings.filterwarnings('ignore', module='openmdao')
-    warnings.filterwarnings('ignore', category=DeprecationWarning)
-    warnings.filterwarnings('ignore', module='dymos')
-    try:
-        from openmdao.utils.om_warnings import OpenMDAOWarning
-
-        warnings.filterwarnings('ignore', category=OpenMDAOWarning)
-    except ImportError:  # pragma: no cover
-        pass
 
 
 if __name__ == '__main__':

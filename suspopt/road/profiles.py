@@ -9,7 +9,7 @@ dictionary (:func:`make_road`), so a study description stays serializable.
 
 Built-in profiles (``profile = ...`` in the study file):
 
-``two_bumps``  the default of docs/roads.md: 1-cos bumps of height ``h``, length ``ℓ``, at ``starts``.
+``two_bumps``  the paper's road: 1-cos bumps of height ``h``, length ``ℓ``, at ``starts``.
 ``bump``       a single 1-cos bump.
 ``step``       a smoothed step of height ``h`` rising over ``ramp_length`` from ``position``.
 ``iso8608``    a random road of an ISO 8608 class (A-H) and seed, as a sum of cosines.

@@ -298,21 +298,6 @@ def final_step(command: str, res: dict[str, Any] | None) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ on a worker
-def quiet_libraries() -> None:
-    """OpenMDAO/Dymos warnings about their own internals are noise in a worker's log."""
-    import warnings
-
-    for module in ('openmdao', 'dymos'):
-        warnings.filterwarnings('ignore', module=module)
-    warnings.filterwarnings('ignore', category=DeprecationWarning)
-    try:
-        from openmdao.utils.om_warnings import OpenMDAOWarning
-
-        warnings.filterwarnings('ignore', category=OpenMDAOWarning)
-    except ImportError:  # pragma: no cover
-        pass
-
-
 def storage_failure(err: BaseException) -> bool:
     """Whether ``err`` (or what caused it) is the file system failing (a full or
     unwritable disk), not the task."""
@@ -364,6 +349,8 @@ def run_task(payload: TaskPayload) -> TaskRecord:
     traceback); a full or unwritable disk gives an ``environment`` record."""
     t0, cpu0 = time.time(), time.process_time()
     worker = announce(payload.topic, payload.name, t0)
+    from suspopt.studies.run import quiet_libraries
+
     quiet_libraries()
     out = Path(payload.out_dir)
     rec = TaskRecord(
