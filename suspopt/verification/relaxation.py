@@ -56,11 +56,11 @@ class NotConverged(RuntimeError):
 
 def jacobians(rates: Rates, refs: np.ndarray, n_inputs: int, input_ref: float):
     """``A = ∂f/∂x`` and ``B = ∂f/∂δ`` at rest by central differences of
-    ``rates(t, X, U)`` (all probes in one vectorized call), with steps that are powers of
-    two (so a rate that is a state, ``z' = v``, is read exactly)."""
+    ``rates(t, X, U)`` (all probes in one vectorized call; from rest, so a rate that is a
+    state, ``z' = v``, is read exactly and its remainder is zero)."""
     n = refs.size
-    step = 2.0 ** np.round(np.log2(1e-6 * refs))
-    du = 2.0 ** np.round(np.log2(1e-6 * input_ref))
+    step = 1e-6 * refs
+    du = 1e-6 * input_ref
     X = np.concatenate([np.diag(step), -np.diag(step), np.zeros((n, 2 * n_inputs))], axis=1)
     U = np.concatenate(
         [np.zeros((n_inputs, 2 * n)), du * np.eye(n_inputs), -du * np.eye(n_inputs)], axis=1

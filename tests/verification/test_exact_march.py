@@ -148,19 +148,20 @@ def test_iso_road_exact_full_car_with_seat():
 def test_sample_grid_resolves_the_road():
     """The grid holds the ISO road's knots under both axles and every bump's breakpoints,
     and between samples the cubic interpolant is within ROAD_TOLERANCE of the road
-    (checked here at 15 points a step, not the three the grid is refined by)."""
+    (checked here at 15 points a step, not the three the grid is refined by; long steps
+    allowed, so that the refinement places the samples)."""
     iso = config_from_dict(
         {'maneuver': {'speed': 20.0, 'horizon': 1.0}, 'road': {'profile': 'iso8608'}}
     )
     for cfg in (StudyConfig(), iso):
         sc = cfg.scenarios()[0]
         spec = tm.vehicle_spec(cfg, sc, 'low')
-        t, (u, p, q) = road_sampling.sample_grid(spec, sc.horizon, 0.01)
-        assert np.all(np.diff(t) <= 0.01 * (1 + 1e-9))
+        t, (u, p, q) = road_sampling.sample_grid(spec, sc.horizon, 0.02)
+        assert np.all(np.diff(t) <= 0.02 * (1 + 1e-9))
         for road, _, off in road_sampling.corner_roads(spec):
-            marks = list(road.breakpoints()) + list(
-                road.knots() if road.knots() is not None else []
-            )
+            knots = road.knots()
+            assert (knots is not None) == (cfg is iso)
+            marks = list(road.breakpoints()) + list(knots if knots is not None else [])
             for s in marks:
                 when = (s + off) / sc.speed
                 if 0.0 < when < sc.horizon:
@@ -173,7 +174,7 @@ def test_sample_grid_resolves_the_road():
         for road, corners, off in road_sampling.corner_roads(spec):
             true = wheel_road_inputs(road, t[k] + tau, sc.speed, (off,), rates=False)[0][0]
             err = np.max(np.abs(cubic[:, corners[0]] - true))
-            assert err <= 1.5 * road_sampling.ROAD_TOLERANCE * np.max(np.abs(u)), err
+            assert err <= 1.2 * road_sampling.ROAD_TOLERANCE * np.max(np.abs(u)), err
 
 
 def test_dense_path_signals_match_dop853():
