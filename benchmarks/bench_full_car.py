@@ -32,7 +32,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -83,8 +82,9 @@ with fresh_cache():
         fl = run(full, 'low', scales['full'], full.design.initial())
         fm = run(full, 'mixed', scales['full'], fl['design'])
         out['rounds'].append({'half_low': hl, 'full_low': fl, 'full_mixed': fm})
-        print(f'round {r}: ' + ', '.join(f'{k} {v["total"]:.1f} s + verification {v["verify"]:.1f} s'
-              for k, v in out['rounds'][-1].items()), file=sys.stderr, flush=True)
+        done = ', '.join(f'{k} {v["total"]:.1f} s + verification {v["verify"]:.1f} s'
+                         for k, v in out['rounds'][-1].items())
+        print(f'round {r}: {done}', file=sys.stderr, flush=True)
 if args['study']:
     from suspopt.studies.twostep import run_study
     with fresh_cache(), tempfile.TemporaryDirectory() as tmp:
@@ -184,7 +184,7 @@ def main() -> None:
         md.append(
             f'{label}: full low / half low {med(r1):.2f}, full mixed / full low {med(r2):.2f}'
             + (
-                f'; the default full car\'s two-step study, first run (empty caches, verified '
+                f"; the default full car's two-step study, first run (empty caches, verified "
                 f'{res["study_verified"]}): {res["study_s"]:.1f} s (f low '
                 f'{res["study_f"][0]:.4f}, mixed {res["study_f"][1]:.4f})'
                 if 'study_s' in res
@@ -195,7 +195,7 @@ def main() -> None:
         md.append('')
     md.append(
         'Medians over the warm rounds; each suspopt source in its own process, side by side '
-        'in one run. The checks\' share counts the scales computed (first) or reused '
+        "in one run. The checks' share counts the scales computed (first) or reused "
         '(cached) and the verification of the optimum.'
     )
     text = '\n'.join(md)
