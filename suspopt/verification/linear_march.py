@@ -24,9 +24,8 @@ its knots on the grid, as the ISO 8608 and measured roads are); everything else 
   balanced ``F`` (Al-Mohy & Higham, "Computing the action of the matrix exponential",
   SIAM J. Sci. Comput. 33(2), 2011), truncated below the rounding error.
 
-The cost is linear in the number of steps: the march goes block by block (the product of
-a block's transition matrices made once per distinct sequence of step lengths, the
-states inside all blocks at once), the integrals take one outer product per step.
+The cost is linear in the number of steps: one small matrix-vector product per step
+(the sequential march) and one outer product per step (the integrals' ``S``).
 """
 
 from __future__ import annotations
@@ -45,11 +44,6 @@ STEP_GROUPING = 1e-10
 
 #: an integral below this fraction of its magnitude bound is rounding error (zero)
 ROUNDING_FLOOR = 1e-12
-
-#: steps per block of the blocked march, and the most kinds of blocks (sequences of step
-#: lengths) it takes
-BLOCK = 32
-MAX_BLOCK_KINDS = 256
 
 #: states between grid points at at most this many distinct offsets into their steps are
 #: propagated by one exponential per offset (else by the exponential's action)
@@ -226,58 +220,14 @@ class Propagator:
         """March from rest with the input's derivatives ``chain`` (steps, CHAIN · inputs)
         at each step's start (:func:`hermite_chain`)."""
         x = np.zeros((self.t.size, self.n))
-        forced = x[1:]  # x_{k+1} = Φ_k x_k + forced_k
         for rows, forcing in zip(self._members, self._forcing):
-            forced[rows] = chain[rows] @ forcing
-        done = self._blocked(x) if self.labels.size >= 4 * BLOCK else 0
+            x[1:][rows] = chain[rows] @ forcing
         steps = self._steps
-        views = list(x)  # the rest one step after the other: one small product per step
-        for k in range(done, self.labels.size):
-            views[k + 1] += steps[self._order[k]].dot(views[k])
+        views = list(x)  # the sequential part: one small product per step
+        for k, g in enumerate(self._order):
+            views[k + 1] += steps[g].dot(views[k])
         w = np.concatenate([x[:-1], chain], axis=1)
         return Marched(F=self.F, t=self.t, x=x, w=w, labels=self.labels, lengths=self.lengths)
-
-    def _blocked(self, x: np.ndarray) -> int:
-        """Advance ``x`` (``x[k+1]`` holding the forcing of step ``k``) over whole blocks of
-        :data:`BLOCK` steps: each block's response from rest and its transition matrix
-        (the product of its steps', one per distinct sequence of step lengths), then the
-        blocks one after the other, then the states inside them, all blocks at once.
-        Returns the steps done (0 if the blocks' sequences are too varied)."""
-        n, L = self.n, BLOCK
-        nb = self.labels.size // L
-        lab = self.labels[: nb * L].reshape(nb, L)
-        keys, key_of = np.unique(lab, axis=0, return_inverse=True)
-        if keys.shape[0] > MAX_BLOCK_KINDS:
-            return 0
-        steps = self._steps
-        M = np.empty((keys.shape[0], n, n))
-        for i, key in enumerate(keys):
-            P = np.eye(n)
-            for g in key:
-                P = steps[g] @ P
-            M[i] = P
-        inner = x[1 : nb * L + 1].reshape(nb, L, n)  # the forcing, then the states
-        forcing = inner.copy()
-
-        def advance(Z: np.ndarray, j: int) -> None:
-            col = lab[:, j]
-            for g in np.unique(col):
-                rows = col == g
-                Z[rows] = Z[rows] @ steps[g].T
-            Z += forcing[:, j]
-
-        Y = np.zeros((nb, n))
-        for j in range(L):
-            advance(Y, j)
-        starts = np.zeros((nb + 1, n))
-        kinds = key_of.ravel().tolist()
-        for b in range(nb):
-            starts[b + 1] = M[kinds[b]] @ starts[b] + Y[b]
-        Z = starts[:-1].copy()
-        for j in range(L):
-            advance(Z, j)
-            inner[:, j] = Z
-        return nb * L
 
 
 def march(A: np.ndarray, B: np.ndarray, t: np.ndarray, chain: np.ndarray) -> Marched:

@@ -68,41 +68,17 @@ def test_march_equals_lsim_for_a_piecewise_linear_input():
     np.testing.assert_allclose(marched.x, ref, atol=1e-12 * np.max(np.abs(ref)))
 
 
-def test_blocked_march_equals_step_by_step():
-    """The march block by block (one transition matrix per kind of block) equals the
-    plain recursion, on alternating step lengths with a remainder of steps."""
-    rng = np.random.default_rng(6)
-    n, m = 7, 2
-    A = rng.standard_normal((n, n)) - 4.0 * np.eye(n)
-    B = rng.standard_normal((n, m))
-    steps = 40 * lm.BLOCK + 5
-    t = np.r_[0.0, np.cumsum(np.where(np.arange(steps) % 3 == 0, 0.002, 0.0031))]
-    chain = lm.hermite_chain(
-        t,
-        rng.standard_normal((t.size, m)),
-        rng.standard_normal((steps, m)),
-        rng.standard_normal((steps, m)),
-    )
-    prop = lm.Propagator(A, B, t)
-    blocked = prop.march(chain).x
-    x = np.zeros((t.size, n))
-    Phi = expm(prop.F[None] * prop.lengths[:, None, None])[:, :n]
-    for k, g in enumerate(prop.labels):
-        x[k + 1] = Phi[g] @ np.concatenate([x[k], chain[k]])
-    np.testing.assert_allclose(blocked, x, rtol=0, atol=1e-13 * np.max(np.abs(x)))
-
-
 def test_march_and_integrals_match_dop853_for_a_cubic_hermite_input():
     """A stable MIMO system, ``y = C x + D u``, driven by a C¹ piecewise-cubic input (SciPy's
-    ``CubicHermiteSpline``, random slopes) on a grid of two interleaved step lengths, long
-    enough for the blocked march with a remainder: the states at the grid points and
-    ``∫ y_i² dt`` equal DOP853 at rtol 1e-12 (restarted at every knot, where the input's
-    second derivative jumps); shares no code with the march."""
+    ``CubicHermiteSpline``, random slopes) on a grid of two interleaved step lengths: the
+    states at the grid points and ``∫ y_i² dt`` equal DOP853 at rtol 1e-12 (restarted at
+    every knot, where the input's second derivative jumps); shares no code with the
+    march."""
     rng = np.random.default_rng(7)
     n, m, p = 6, 2, 3
     A = rng.standard_normal((n, n)) - 4.0 * np.eye(n)
     B, C, D = (rng.standard_normal(s) for s in ((n, m), (p, n), (p, m)))
-    steps = 4 * lm.BLOCK + 7
+    steps = 135
     t = np.r_[0.0, np.cumsum(np.where(rng.random(steps) < 0.5, 0.02, 0.037))]
     u, du = rng.standard_normal((t.size, m)), 5.0 * rng.standard_normal((t.size, m))
     road = CubicHermiteSpline(t, u, du, axis=0)
