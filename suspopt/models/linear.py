@@ -24,6 +24,11 @@ import numpy as np
 from suspopt.models.assembly import AssemblyEvaluator, VehicleAssembly
 
 
+class NonlinearModelError(ValueError):
+    """The vehicle is not linear time-invariant in its states and road heights (a
+    nonlinear curve, a time-varying input, the mixed fidelity): no state-space matrices."""
+
+
 @dataclass(frozen=True)
 class LinearModel:
     """``x' = A x + B δ``, ``y = C x + D δ`` of one vehicle at one design; ``states`` and
@@ -70,9 +75,9 @@ class _Probe:
 
     def __init__(self, assembly: VehicleAssembly, outputs: Sequence[str]):
         if assembly.fidelity != 'low':
-            raise ValueError('only the low-fidelity vehicle is linear (fidelity "low")')
+            raise NonlinearModelError('only the low-fidelity vehicle is linear (fidelity "low")')
         if assembly.spec.has_curves:
-            raise ValueError(
+            raise NonlinearModelError(
                 'the suspension has curves (docs/nonlinear_hardware.md): the vehicle is not linear'
             )
         self.assembly = assembly
@@ -83,13 +88,17 @@ class _Probe:
         self.nc = assembly.spec.layout.n
 
     def __call__(
-        self, x: np.ndarray, delta: np.ndarray, design: Mapping[str, float]
+        self,
+        x: np.ndarray,
+        delta: np.ndarray,
+        design: Mapping[str, float],
+        time: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Rates and outputs at states ``x`` (n, K) and road heights ``delta`` (corners,
-        K), K probes at once."""
+        K), K probes at once, at times ``time`` (K,; default zero)."""
         K = x.shape[1]
         signals: dict[str, np.ndarray] = {
-            'time': np.zeros(K),
+            'time': np.zeros(K) if time is None else np.asarray(time, dtype=float),
             'delta': delta.T,
             **{n: np.array([float(design[n])]) for n in self.assembly.spec.design},
         }
@@ -132,7 +141,7 @@ def linearize(
     rates, ys = probe(X, U, design)
     base_r, base_y = rates[:, :1], ys[:, :1]
     if np.any(base_r) or np.any(base_y):
-        raise ValueError('the model is not linear: nonzero rates at zero state and road')
+        raise NonlinearModelError('the model is not linear: nonzero rates at zero state and road')
     widths = [int(np.size(_one_signal(probe, name, design))) for name in outputs]
     bounds = np.cumsum([0] + widths)
     signals = {name: slice(a, b) for name, a, b in zip(outputs, bounds[:-1], bounds[1:])}
@@ -148,6 +157,50 @@ def linearize(
         outputs=tuple(labels),
         signals=signals,
     )
+
+
+def check_linear(
+    assembly: VehicleAssembly,
+    design: Mapping[str, float],
+    model: LinearModel,
+    outputs: Sequence[str] = (),
+    *,
+    horizon: float = 1.0,
+    probes: int = 4,
+    rtol: float = 1e-9,
+    seed: int = 0,
+) -> None:
+    """Raise :class:`NonlinearModelError` unless the assembly's rates and ``outputs`` (the
+    signals ``model`` was read with) equal ``A x + B δ`` and ``C x + D δ`` at random
+    states and road heights (each state from a thousandth to ten times its typical
+    magnitude ``State.ref``, heights up to half a metre) and random times in
+    ``[0, horizon]``: a nonlinear curve, a stop, or an input that varies in time makes
+    the matrices (read at unit probes at time zero) inapplicable."""
+    probe = _Probe(assembly, outputs)
+    rng = np.random.default_rng(seed)
+    refs = np.concatenate([np.full(int(np.prod(st.shape)), st.ref) for st in assembly.states])
+    amplitude = np.repeat([1e-3, 1.0, 10.0], probes)
+    K = amplitude.size
+    X = rng.standard_normal((probe.n, K)) * refs[:, None] * amplitude
+    U = rng.standard_normal((probe.nc, K)) * 0.05 * amplitude
+    try:
+        with np.errstate(all='ignore'):
+            rates, ys = probe(X, U, design, time=rng.uniform(0.0, horizon, K))
+    except Exception as err:  # a component that cannot take these states is not linear
+        raise NonlinearModelError(f'the model cannot be probed: {err}') from err
+    for name, value, (M, N), labels in (
+        ('rate of', rates, (model.A, model.B), model.states),
+        ('output', ys, (model.C, model.D), model.outputs),
+    ):
+        linear = M @ X + N @ U
+        scale = np.abs(M) @ np.abs(X) + np.abs(N) @ np.abs(U)
+        bad = ~(np.abs(value - linear) <= rtol * scale)
+        if np.any(bad):
+            row = int(np.argwhere(bad)[0][0])
+            raise NonlinearModelError(
+                f'the model is not linear time-invariant: the {name} {labels[row]} '
+                'departs from its linearization at a probe state'
+            )
 
 
 def _one_signal(probe: _Probe, name: str, design: Mapping[str, float]) -> np.ndarray:

@@ -61,6 +61,12 @@ class RoadProfile:
         """Distances where ``r''`` is discontinuous (for the time-marching integrator)."""
         return []
 
+    def knots(self) -> np.ndarray | None:
+        """Distances between which the profile is one cubic polynomial (a spline's knots),
+        or None if it is not piecewise cubic (the exact time marching of the linear models
+        samples it then by its own interpolation error)."""
+        return None
+
     def max_frequency(self) -> float:
         """The highest significant spatial frequency of the profile [cycle/m] (for the
         automatic grid)."""
@@ -296,6 +302,10 @@ class ISO8608Road(RoadProfile):
     def breakpoints(self) -> list[float]:
         return [0.0, self.fade_in] if self.fade_in > 0.0 else [0.0]
 
+    def knots(self) -> np.ndarray:
+        """The synthesis grid: the cubic spline's knots (constant outside them)."""
+        return np.asarray(self._spline.x)
+
     def max_frequency(self) -> float:
         return self.n_max
 
@@ -418,6 +428,10 @@ class CSVRoad(RoadProfile):
 
     def breakpoints(self) -> list[float]:
         return [float(self._spline.x[0])]
+
+    def knots(self) -> np.ndarray:
+        """The data points: the cubic spline's knots (constant before the first)."""
+        return np.asarray(self._spline.x)
 
     def max_frequency(self) -> float:
         """The frequency below which 99.9 % of the profile's variance lies (its spectrum

@@ -1,4 +1,5 @@
-"""Cache of total-derivative colorings, keyed by the model's structure.
+"""Cache of total-derivative colorings, keyed by the model's structure; beside it, the
+cache of the ``reference`` normalization's scales.
 
 Beside each constraint-Jacobian coloring, the exact Hessian's structure
 (:class:`~suspopt.driver.hessian.HessianStructure`) where it was used.
@@ -11,8 +12,14 @@ every study with the same structure. The key hashes exactly that structure, incl
 the OpenMDAO/Dymos versions and a digest of suspopt's model-building source, so a code
 change never reuses a stale coloring.
 
-Location: ``$SUSPOPT_CACHE_DIR`` or ``~/.cache/suspopt/colorings`` (never a results folder).
-Files are written atomically, so parallel studies can share the cache.
+The reference scales (time-marched objective terms at the initial design,
+:func:`suspopt.verification.timemarching.reference_scales`) are kept in the same way,
+under a key the time marching computes from everything they depend on
+(:func:`load_scales`, :func:`store_scales`).
+
+Location: ``$SUSPOPT_CACHE_DIR`` or ``~/.cache/suspopt``, in ``colorings/`` and
+``scales/`` (never a results folder). Files are written atomically, so parallel studies
+can share the cache.
 """
 
 from __future__ import annotations
@@ -41,16 +48,24 @@ _MODEL_SOURCES = (
 )
 
 
-def cache_dir() -> Path:
+def cache_root() -> Path:
     root = os.environ.get('SUSPOPT_CACHE_DIR')
-    base = Path(root) if root else Path.home() / '.cache' / 'suspopt'
-    return base / 'colorings'
+    return Path(root) if root else Path.home() / '.cache' / 'suspopt'
 
 
-def _source_digest() -> str:
+def cache_dir() -> Path:
+    return cache_root() / 'colorings'
+
+
+def scales_dir() -> Path:
+    return cache_root() / 'scales'
+
+
+def source_digest(entries: tuple[str, ...] = _MODEL_SOURCES) -> str:
+    """Digest of suspopt's source files under ``entries`` (paths in the package)."""
     pkg = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
-    for entry in _MODEL_SOURCES:
+    for entry in entries:
         path = pkg / entry
         files = sorted(path.rglob('*.py')) if path.is_dir() else [path]
         for f in files:
@@ -71,7 +86,7 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
         'grids': [(sc.segments, sc.order) for sc in config.scenarios()],
         'aggregate': config.objective.aggregate,
         'versions': [openmdao.__version__, dymos.__version__],
-        'source': _source_digest(),
+        'source': source_digest(),
     }
     curves = curves_structure(config)
     if curves is not None:  # the hardware's curve forms (their parameters' inputs)
@@ -117,6 +132,33 @@ def store(key: str, coloring: Coloring | HessianStructure) -> Path | None:
         os.close(fd)
         coloring.save(tmp)
         path = _file(key, type(coloring))
+        os.replace(tmp, path)
+        return path
+    except OSError:
+        return None
+
+
+def load_scales(key: str) -> dict[str, float] | None:
+    """The cached scales (term -> value) for ``key``, or None."""
+    path = scales_dir() / f'{key}.json'
+    try:
+        data = json.loads(path.read_text()) if path.is_file() else None
+        if not isinstance(data, dict) or data.get('key') != key:
+            return None
+        return {str(t): float(v) for t, v in data['scales'].items()}
+    except Exception:  # unreadable or damaged: recompute
+        return None
+
+
+def store_scales(key: str, scales: dict[str, float]) -> Path | None:
+    """Save ``scales`` under ``key`` atomically; a read-only cache is silently skipped."""
+    directory = scales_dir()
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=directory, suffix='.tmp')
+        with os.fdopen(fd, 'w') as fh:
+            json.dump({'key': key, 'scales': scales}, fh)
+        path = directory / f'{key}.json'
         os.replace(tmp, path)
         return path
     except OSError:
