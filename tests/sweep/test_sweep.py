@@ -24,12 +24,12 @@ DASK = str(Path(sys.executable).parent / 'dask')
 STUDY = """
 [maneuver]
 speed = 10.0
-horizon = 5.0
+horizon = 2.0
 [road]
 profile = "iso8608"
 seed = 0
 [transcription]
-segments = 24
+segments = 10
 [objective]
 normalization = "custom"
 scales = [2.4, 1.56, 4.5e-4, 4.7e-4]
@@ -38,7 +38,7 @@ PRODUCT = """
 study = "study.toml"
 command = "optimize"
 fidelity = "low"
-verify = false           # engine tests: 24 segments are quick, too coarse to verify
+verify = false           # engine tests: 10 segments are quick, too coarse to verify
 [axes]
 "maneuver.speed" = [10.0, 15.0]
 road.seed = [0, 1]
@@ -683,7 +683,7 @@ def test_a_task_is_identified_by_the_content_it_reads(tmp_path):
     assert [t.name for t in load_sweep(path).tasks] == names
     (tmp_path / 'b' / 'dw.toml').write_text(mech + '\n# edited\n')
     assert set(t.name for t in load_sweep(path).tasks).isdisjoint(names)
-    (tmp_path / 'study.toml').write_text(study.replace('horizon = 5.0', 'horizon = 4.0'))
+    (tmp_path / 'study.toml').write_text(study.replace('horizon = 2.0', 'horizon = 1.5'))
     assert set(t.name for t in load_sweep(path).tasks).isdisjoint(names)
 
 
