@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError, MultibodyError
-from suspopt.multibody.elements import is_spring
+from suspopt.multibody.elements import PointLoad, is_spring
 from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
@@ -89,13 +89,22 @@ def kinematic_curves(
     mech = load_mechanism(mechanism, suspension=True) if isinstance(mechanism, str) else mechanism
     s = PlanarMultibodySolver(mech)
     roles = mech.roles
-    lo, hi = mech.travel if travel is None else travel
+    span = mech.travel if travel is None else travel
+    if span is None:
+        raise ConfigError(f'travel: {mech.name} has no travel range ([suspension]); give one')
+    lo, hi = span
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi) or points < 2:
         raise ConfigError(
             f'travel: need min < max and at least 2 points, got [{lo}, {hi}] with {points} points'
         )
     spring = mech.force(roles['spring'])
-    unit = getattr(spring, 'curves', None)
+    tyre_load = mech.force(roles['tyre_load'])
+    if not is_spring(spring) or not isinstance(tyre_load, PointLoad):
+        raise ConfigError(
+            f'suspension: {mech.name} needs a spring element as its spring and a point load '
+            'as its tyre_load'
+        )
+    unit = spring.curves
     params: dict[str, float] = {}
     if unit is not None:
         if k is not None:
@@ -115,9 +124,9 @@ def kinematic_curves(
     )
     x_c = float(mech.centre_line if centre_line is None else centre_line)
     wheel = s.marker_names.index(roles['wheel_marker'])
-    patch = s.marker_names.index(mech.force(roles['tyre_load']).marker)
+    patch = s.marker_names.index(tyre_load.marker)
     body = s.body_names.index(mech.marker(roles['wheel_marker']).body)
-    hub = s.body_names.index(mech.marker(mech.force(roles['tyre_load']).marker).body)
+    hub = s.body_names.index(mech.marker(tyre_load.marker).body)
     ref = s.marker_reference()
     # and the reference pose (the roll centre's migration), analysed with them, then split
     target = np.append(np.linspace(lo, hi, points), 0.0)
@@ -277,7 +286,7 @@ def reference_wheel_rate(
             dfl = sp.deflection[0]
             if spec.name == roles['spring']:
                 a, mr = s_w**2 + dfl * s_ww, -s_w
-            elif getattr(spec, 'curves', None) is not None:  # E(x), x = -s
+            elif spec.curves is not None:  # E(x), x = -s
                 F, dF = spec.curves.elastic_force(-dfl)
                 b = b + float(dF) * s_w**2 - float(F) * s_ww + spec.preload * s_ww
             else:
