@@ -42,11 +42,17 @@ cfg = config_from_dict({
 })
 fid = args['fidelity']
 out = {}
-t0 = time.perf_counter(); scales = resolve_scales(cfg); out['scales_s'] = time.perf_counter() - t0
-t0 = time.perf_counter(); vp = VehicleProblem(cfg, fid, scales); out['setup_s'] = time.perf_counter() - t0
+t0 = time.perf_counter()
+scales = resolve_scales(cfg)
+out['scales_s'] = time.perf_counter() - t0
+t0 = time.perf_counter()
+vp = VehicleProblem(cfg, fid, scales)
+out['setup_s'] = time.perf_counter() - t0
 start = cfg.design.initial()
 vp.set_design(start)
-t0 = time.perf_counter(); vp.set_initial_guess(initial_guess(cfg, fid, start)); out['guess_s'] = time.perf_counter() - t0
+t0 = time.perf_counter()
+vp.set_initial_guess(initial_guess(cfg, fid, start))
+out['guess_s'] = time.perf_counter() - t0
 res = vp.solve()
 out['coloring_s'] = res.times.coloring_s
 out['solve_s'] = res.times.solve_s
@@ -57,7 +63,9 @@ out['from_cache'] = vp.coloring_from_cache
 lay = vp.driver.layout()
 out['nlp'] = [lay.n, lay.m, vp.driver.coloring.nnz if vp.driver.coloring else 0,
               vp.driver.coloring.n_colors if vp.driver.coloring else 0]
-t0 = time.perf_counter(); tr = simulate(cfg, fid, res.design, t_eval=[0.0, T]); out['verify_s'] = time.perf_counter() - t0
+t0 = time.perf_counter()
+tr = simulate(cfg, fid, res.design, t_eval=[0.0, T])
+out['verify_s'] = time.perf_counter() - t0
 J = res.scenarios[0].reached[1]
 out['verify_rel_diff'] = max(abs(J[t] / b - 1.0) for t, b in zip(cfg.terms(), tr.J))
 vp.cleanup()
