@@ -185,9 +185,25 @@ class PlanarMultibodySolver:
             },
         )
 
+        self._setup_joints(layout)
+        self._setup_forces(layout)
+        self._setup_partitioning(idx)
+
+        #: q_dep as a cubic spline of the single independent coordinate over the wheel
+        #: travel range (a suspension's), the start of its position analyses there; made
+        #: at the first analysis that needs it (False: none to make)
+        self._pose_spline: Callable[[np.ndarray], np.ndarray] | Literal[False] | None = None
+        self._travel_poses: dict[float, np.ndarray] | None = None
+        if mechanism.travel is not None:
+            self._travel_poses = self._check_travel(mechanism.travel)
+
+    def _setup_joints(self, layout: Layout) -> None:
+        """The joints: the mechanism's, then every fixed body welded to the ground at its
+        CG, in one group per type, with where their rows and Jacobian entries go."""
         # joints: the mechanism's, then every fixed body welded to the ground at its CG
+        mechanism, nb, q0e = self.mechanism, self.nb, layout.q0e
         specs: list[JointSpec] = list(mechanism.joints) + [
-            FixedJoint(f'fixed {b.name}', (b.name, GROUND)) for b in bodies if b.fixed
+            FixedJoint(f'fixed {b.name}', (b.name, GROUND)) for b in mechanism.bodies if b.fixed
         ]
         self.nj = len(mechanism.joints)
         self.joint_names = [j.name for j in specs]
@@ -254,7 +270,10 @@ class PlanarMultibodySolver:
             if not g.constant_force_jacobian and np.any(g.members < self.nj)
         ]
 
-        # force elements: the loads, then [[forces]]
+    def _setup_forces(self, layout: Layout) -> None:
+        """The force elements: the loads, then ``[[forces]]``, one group per type; and
+        gravity."""
+        mechanism, nb = self.mechanism, self.nb
         fspecs = list(mechanism.loads) + list(mechanism.forces)
         self.force_names = [f.name for f in fspecs]
         self.load_names = [f.name for f in fspecs if isinstance(f, PointLoad)]
@@ -286,7 +305,10 @@ class PlanarMultibodySolver:
             Qg[:, :2] += self.mass_diag.reshape(nb, 3)[:, :1] * gravity
             self._gravity_force = Qg.ravel()
 
-        # coordinate partitioning
+    def _setup_partitioning(self, idx: dict[str, int]) -> None:
+        """Coordinate partitioning: the independent and dependent coordinates, checked at
+        the reference pose, and the tangents that predict a position analysis's start."""
+        mechanism = self.mechanism
         self.ind = np.array(
             [3 * idx[b] + COORDINATES.index(c) for b, c in mechanism.independent], dtype=int
         )
@@ -319,13 +341,6 @@ class PlanarMultibodySolver:
         E = np.zeros((self.m, self._drive_rows.size))
         E[self._drive_rows, np.arange(self._drive_rows.size)] = 1.0
         self._drive_tangent0 = np.linalg.solve(Cq[:, self.dep], E)
-        #: q_dep as a cubic spline of the single independent coordinate over the wheel
-        #: travel range (a suspension's), the start of its position analyses there; made
-        #: at the first analysis that needs it (False: none to make)
-        self._pose_spline: Callable[[np.ndarray], np.ndarray] | Literal[False] | None = None
-        self._travel_poses: dict[float, np.ndarray] | None = None
-        if mechanism.travel is not None:
-            self._travel_poses = self._check_travel(mechanism.travel)
 
     # ---------------------------------------------------------------- run-time values
     def extend(self, q: np.ndarray) -> np.ndarray:
