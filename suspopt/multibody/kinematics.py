@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError, MultibodyError
-from suspopt.multibody.elements import PointLoad, is_spring
+from suspopt.multibody.elements import PointLoad, SpringSpec, is_spring
 from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
@@ -105,23 +105,7 @@ def kinematic_curves(
             'as its tyre_load'
         )
     unit = spring.curves
-    params: dict[str, float] = {}
-    if unit is not None:
-        if k is not None:
-            if 'k_S' not in unit.scalar_parameters():
-                raise ConfigError(
-                    f'k: the spring {spring.name!r} of {mech.name} is a table; it has no rate '
-                    'k_S to replace'
-                )
-            params['k_S'] = float(k)
-        k = float(unit.elastic_force(0.0, params)[1])
-    k = float(
-        spring.stiffness
-        if k is None and spring.stiffness > 0
-        else DEFAULT_SPRING_RATE
-        if k is None
-        else k
-    )
+    k, params = _spring_rate(spring, k, mech.name)
     x_c = float(mech.centre_line if centre_line is None else centre_line)
     wheel = s.marker_names.index(roles['wheel_marker'])
     patch = s.marker_names.index(tyre_load.marker)
@@ -131,27 +115,7 @@ def kinematic_curves(
     # and the reference pose (the roll centre's migration), analysed with them, then split
     target = np.append(np.linspace(lo, hi, points), 0.0)
     points += 1
-    z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
-    try:
-        for _ in range(30):  # Newton on w(z) = target, all at once
-            q = s.positions(z[:, None])
-            qd = s.velocities(q, np.ones((points, 1)))
-            w = s.marker_positions(q)[:, wheel, 1] - ref[wheel, 1]
-            w1 = s.marker_velocities(q, qd)[:, wheel, 1]
-            if np.max(np.abs(w - target)) < 1e-13:
-                break
-            z = z - (w - target) / w1
-        else:
-            raise MultibodyError(
-                'the wheel travel does not follow the independent '
-                'coordinate (Newton on the travel did not converge)'
-            )
-        qdd = s.accelerations(q, qd, np.zeros((points, 1)))
-    except MultibodyError as err:
-        raise ConfigError(
-            f'travel: {mech.name} cannot follow the wheel travel '
-            f'[{lo:g}, {hi:g}] m: ' + str(err).removeprefix(f'{mech.name}: ')
-        ) from None
+    z, q, qd, qdd, w, w1 = _follow_travel(s, wheel, ref, target, (lo, hi))
     w2 = s.marker_accelerations(q, qd, qdd)[:, wheel, 1]
     sp = s.spring(
         roles['spring'], q, qd, {roles['spring']: {'stiffness': 0.0, 'damping': 0.0}}, qdd=qdd
@@ -188,6 +152,70 @@ def kinematic_curves(
         'instant_centre': ic,
     }
     return {k: v[:-1] if isinstance(v, np.ndarray) else v for k, v in out.items()}
+
+
+def _spring_rate(spring: SpringSpec, k: float | None, name: str) -> tuple[float, dict[str, float]]:
+    """The spring rate of :func:`kinematic_curves` (``k``, else the spring's, else
+    :data:`DEFAULT_SPRING_RATE`; a spring with curves: its rate at zero compression, with
+    ``k`` as its ``k_S``) and the curve parameters that give it (``name``: the
+    mechanism's)."""
+    unit = spring.curves
+    params: dict[str, float] = {}
+    if unit is not None:
+        if k is not None:
+            if 'k_S' not in unit.scalar_parameters():
+                raise ConfigError(
+                    f'k: the spring {spring.name!r} of {name} is a table; it has no rate '
+                    'k_S to replace'
+                )
+            params['k_S'] = float(k)
+        k = float(unit.elastic_force(0.0, params)[1])
+    k = float(
+        spring.stiffness
+        if k is None and spring.stiffness > 0
+        else DEFAULT_SPRING_RATE
+        if k is None
+        else k
+    )
+    return k, params
+
+
+def _follow_travel(
+    s: PlanarMultibodySolver,
+    wheel: int,
+    ref: np.ndarray,
+    target: np.ndarray,
+    span: tuple[float, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The poses where the wheel marker (index ``wheel``, reference positions ``ref``) has
+    travelled ``target`` (Newton on ``w(z) = target``, all at once): the independent
+    coordinate ``z``, ``q``, ``q̇`` and ``q̈`` at unit ``ż`` and zero ``z̈``, the travel ``w``
+    and ``∂w/∂z``. A ConfigError names the travel range ``span`` if the linkage cannot
+    follow it."""
+    name = s.mechanism.name
+    points = target.size
+    z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
+    try:
+        for _ in range(30):  # Newton on w(z) = target, all at once
+            q = s.positions(z[:, None])
+            qd = s.velocities(q, np.ones((points, 1)))
+            w = s.marker_positions(q)[:, wheel, 1] - ref[wheel, 1]
+            w1 = s.marker_velocities(q, qd)[:, wheel, 1]
+            if np.max(np.abs(w - target)) < 1e-13:
+                break
+            z = z - (w - target) / w1
+        else:
+            raise MultibodyError(
+                'the wheel travel does not follow the independent '
+                'coordinate (Newton on the travel did not converge)'
+            )
+        qdd = s.accelerations(q, qd, np.zeros((points, 1)))
+    except MultibodyError as err:
+        raise ConfigError(
+            f'travel: {name} cannot follow the wheel travel '
+            f'[{span[0]:g}, {span[1]:g}] m: ' + str(err).removeprefix(f'{name}: ')
+        ) from None
+    return z, q, qd, qdd, w, w1
 
 
 def curves_table(curves: dict[str, Any]) -> str:

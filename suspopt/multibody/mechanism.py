@@ -179,49 +179,10 @@ def mechanism_from_dict(
             'suspension': suspension,
         },
     )
-    bodies: list[Body] = []
-    names: set[str] = set()
-    for i, b in enumerate(_list_of_tables(rd, data, 'bodies')):
-        w = f'bodies[{i}]'
-        rd.table(
-            b,
-            w,
-            {
-                'name': True,
-                'mass': True,
-                'inertia': True,
-                'position': True,
-                'angle': False,
-                'fixed': False,
-            },
-        )
-        fixed = b.get('fixed', False)
-        if not isinstance(fixed, bool):
-            rd.err(f'{w}.fixed', f'must be true or false, got {fixed!r}')
-        bodies.append(
-            Body(
-                name=rd.name(b, w, names),
-                mass=rd.number(b, 'mass', w, positive=True),
-                inertia=rd.number(b, 'inertia', w, positive=True),
-                position=rd.vec2(b, 'position', w),
-                angle=rd.number(b, 'angle', w, default=0.0),
-                fixed=bool(fixed),
-            )
-        )
+    bodies = _read_bodies(rd, data)
     rd.body_names = [b.name for b in bodies]
 
-    markers: list[Marker] = []
-    mnames: set[str] = set()
-    for i, m in enumerate(_list_of_tables(rd, data, 'markers')):
-        w = f'markers[{i}]'
-        rd.table(m, w, {'name': True, 'body': True, 'point': True})
-        mk = Marker(
-            name=rd.name(m, w, mnames),
-            body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
-            point=rd.vec2(m, 'point', w),
-        )
-        markers.append(mk)
-        rd.markers[mk.name] = (mk.body, mk.point)
+    markers = _read_markers(rd, data)
 
     seen: set[str] = set()
     joints: list[JointSpec] = _elements(
@@ -238,19 +199,7 @@ def mechanism_from_dict(
     )
     forces: list[ForceSpec] = _elements(rd, data, 'forces', FORCE_TYPES, 'force', seen=seen)
 
-    independent: list[tuple[str, str]] = []
-    for i, c in enumerate(_list_of_tables(rd, data, 'independent')):
-        w = f'independent[{i}]'
-        rd.table(c, w, {'body': True, 'coordinate': True})
-        body = rd.body(c.get('body'), f'{w}.body', allow_ground=False)
-        if c.get('coordinate') not in COORDINATES:
-            rd.err(
-                f'{w}.coordinate',
-                f'must be one of {", ".join(COORDINATES)}, got {c.get("coordinate")!r}',
-            )
-        if any(bd.name == body and bd.fixed for bd in bodies):
-            rd.err(f'{w}.body', f'{body!r} is fixed and cannot be an independent coordinate')
-        independent.append((body, str(c.get('coordinate'))))
+    independent = _read_independent(rd, data, bodies)
 
     roles: dict[str, str] = {}
     travel = None
@@ -287,6 +236,75 @@ def mechanism_from_dict(
     if rd.errors:
         raise ConfigError(rd.errors)
     return mech
+
+
+def _read_bodies(rd: Reader, data: dict) -> list[Body]:
+    """The ``[[bodies]]`` tables."""
+    bodies: list[Body] = []
+    names: set[str] = set()
+    for i, b in enumerate(_list_of_tables(rd, data, 'bodies')):
+        w = f'bodies[{i}]'
+        rd.table(
+            b,
+            w,
+            {
+                'name': True,
+                'mass': True,
+                'inertia': True,
+                'position': True,
+                'angle': False,
+                'fixed': False,
+            },
+        )
+        fixed = b.get('fixed', False)
+        if not isinstance(fixed, bool):
+            rd.err(f'{w}.fixed', f'must be true or false, got {fixed!r}')
+        bodies.append(
+            Body(
+                name=rd.name(b, w, names),
+                mass=rd.number(b, 'mass', w, positive=True),
+                inertia=rd.number(b, 'inertia', w, positive=True),
+                position=rd.vec2(b, 'position', w),
+                angle=rd.number(b, 'angle', w, default=0.0),
+                fixed=bool(fixed),
+            )
+        )
+    return bodies
+
+
+def _read_markers(rd: Reader, data: dict) -> list[Marker]:
+    """The ``[[markers]]`` tables (each also remembered by ``rd`` for the elements)."""
+    markers: list[Marker] = []
+    mnames: set[str] = set()
+    for i, m in enumerate(_list_of_tables(rd, data, 'markers')):
+        w = f'markers[{i}]'
+        rd.table(m, w, {'name': True, 'body': True, 'point': True})
+        mk = Marker(
+            name=rd.name(m, w, mnames),
+            body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
+            point=rd.vec2(m, 'point', w),
+        )
+        markers.append(mk)
+        rd.markers[mk.name] = (mk.body, mk.point)
+    return markers
+
+
+def _read_independent(rd: Reader, data: dict, bodies: list[Body]) -> list[tuple[str, str]]:
+    """The ``[[independent]]`` coordinates: (body, coordinate) each."""
+    independent: list[tuple[str, str]] = []
+    for i, c in enumerate(_list_of_tables(rd, data, 'independent')):
+        w = f'independent[{i}]'
+        rd.table(c, w, {'body': True, 'coordinate': True})
+        body = rd.body(c.get('body'), f'{w}.body', allow_ground=False)
+        if c.get('coordinate') not in COORDINATES:
+            rd.err(
+                f'{w}.coordinate',
+                f'must be one of {", ".join(COORDINATES)}, got {c.get("coordinate")!r}',
+            )
+        if any(bd.name == body and bd.fixed for bd in bodies):
+            rd.err(f'{w}.body', f'{body!r} is fixed and cannot be an independent coordinate')
+        independent.append((body, str(c.get('coordinate'))))
+    return independent
 
 
 def _elements(
