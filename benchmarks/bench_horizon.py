@@ -50,11 +50,17 @@ cfg = config_from_dict({
 fid = args['fidelity']
 out = {}
 clock = time.perf_counter
-t0 = clock(); scales = resolve_scales(cfg); out['scales_s'] = clock() - t0
-t0 = clock(); vp = VehicleProblem(cfg, fid, scales); out['setup_s'] = clock() - t0
+t0 = clock()
+scales = resolve_scales(cfg)
+out['scales_s'] = clock() - t0
+t0 = clock()
+vp = VehicleProblem(cfg, fid, scales)
+out['setup_s'] = clock() - t0
 start = cfg.design.initial()
 vp.set_design(start)
-t0 = clock(); vp.set_initial_guess(initial_guess(cfg, fid, start)); out['guess_s'] = clock() - t0
+t0 = clock()
+vp.set_initial_guess(initial_guess(cfg, fid, start))
+out['guess_s'] = clock() - t0
 res = vp.solve()
 out['coloring_s'] = res.times.coloring_s
 out['solve_s'] = res.times.solve_s

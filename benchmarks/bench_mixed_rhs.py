@@ -6,10 +6,10 @@
 Models: ``half``, the paper's half car (``StudyConfig()``, ground mount); ``chassis``, the
 same with ``multibody.mount = "chassis"``; ``full``, the default full car (``suspopt init
 --model full_car``: ``full_car_defaults()``); ``full_chassis`` on request. For each, the
-time marching's right-hand side (``suspopt.verification.timemarching.VehicleRHS``, unchanged) is built
-with the full modules (``SuspensionModule``, the augmented solve of eq. 11 at every call)
-and with the reduced ones (``suspopt.multibody.reduced``, passed as its ``modules``):
-NumPy, and compiled by Numba if it is installed.
+time marching's right-hand side (``suspopt.verification.timemarching.VehicleRHS``,
+unchanged) is built with the full modules (``SuspensionModule``, the augmented solve of
+eq. 11 at every call) and with the reduced ones (``suspopt.multibody.reduced``, passed as
+its ``modules``): NumPy, and compiled by Numba if it is installed.
 
 * right-hand side: process time per call [µs] at ``--states`` consecutive states of the
   low-fidelity trajectory, median of ``--repeat`` sweeps, and the part spent inside the
@@ -43,15 +43,15 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from _common import git_revision, machine, write_result  # noqa: E402
 
-from suspopt.spec.schema import StudyConfig  # noqa: E402
-from suspopt.spec.load import full_car_defaults  # noqa: E402
 from suspopt.multibody.reduced import (  # noqa: E402
     ReducedSuspensionModule,
     clear_tables,
     reduced_modules,
 )
-from suspopt.verification.timemarching import VehicleRHS, simulate  # noqa: E402
+from suspopt.spec.load import full_car_defaults  # noqa: E402
+from suspopt.spec.schema import StudyConfig  # noqa: E402
 from suspopt.transcription.problem import multibody_modules  # noqa: E402
+from suspopt.verification.timemarching import VehicleRHS, simulate  # noqa: E402
 
 MODELS = ('half', 'chassis', 'full', 'full_chassis')
 VERIFY = (1e-6, 1e-9)

@@ -6,7 +6,8 @@ Per mechanism and batch size N (random wheel travels within ±50 mm, rates ±0.5
 tyre loads ±3 kN, a spring of 30 kN/m and 3 kN s/m as element parameters): the time of
 one batched position analysis (Newton from the reference pose moved along its tangent,
 as the vehicle interface calls it), velocity analysis, generalized forces and augmented
-solve (eq. 11: coordinate partitioning, Schur elimination and dense), medians (min–max) of ``--repeat`` calls.
+solve (eq. 11: coordinate partitioning, Schur elimination and dense), medians (min–max)
+of ``--repeat`` calls.
 Process CPU time, so that other jobs on a shared machine disturb it less.
 """
 

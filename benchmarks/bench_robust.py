@@ -95,10 +95,14 @@ def main() -> None:
             f'{med(t[i] for t in one_t):.2f} |'
         )
     ratios = [r / sum(t) for r, t in zip(rob_t, one_t)]
+    cold_robust, cold_singles = rounds[0]
+    cold = (cold_robust['total'] + cold_robust['coloring']) / sum(
+        o['total'] + o['coloring'] for o in cold_singles
+    )
     print(
         f'\nrobust / Σ singles: {med(ratios):.2f} (per round: '
         f'{", ".join(f"{x:.2f}" for x in ratios)}); cold round, coloring included: '
-        f'{(rounds[0][0]["total"] + rounds[0][0]["coloring"]) / sum(o["total"] + o["coloring"] for o in rounds[0][1]):.2f}'
+        f'{cold:.2f}'
     )
     print(
         f'robust f = {rob["f"]:.6f}; peak RSS of this process '

@@ -7,8 +7,8 @@
 (double wishbone, ground mount) at N states. Small N is the time-marching pattern: each
 call's wheel travels are the last call's moved along a sine (1 ms steps), the position
 analysis started from the last pose moved along its tangent (as
-``suspopt.verification.timemarching`` does); N = 2000 is the collocation's pattern, from the reference
-pose. ``half``/``full``: wall time of ``simulate(config, 'mixed')`` (the half car
+``suspopt.verification.timemarching`` does); N = 2000 is the collocation's pattern, from the
+reference pose. ``half``/``full``: wall time of ``simulate(config, 'mixed')`` (the half car
 ``StudyConfig()`` and ``full_car_defaults()``, the configured horizon unless
 ``--horizon``), its RHS calls and the objective integrals J.
 

@@ -5,7 +5,8 @@ of the half car (paper eqs. 5-10, docs/model.md) with the weighted objective of 
 (docs/model.md), solved by IPOPT through ``casadi.nlpsol``. Nothing of suspopt's model,
 transcription or driver is used; only the road profile is taken from suspopt
 (``suspopt.road.wheel_road_inputs``), because the road is data, not model, and the
-``reference`` objective scales (``suspopt.verification.timemarching.reference_scales``) are an input.
+``reference`` objective scales (``suspopt.verification.timemarching.reference_scales``) are
+an input.
 
 Model (docs/model.md, paper eqs. 5-10), states x = [z_C, v_C, θ_C, ω_C, z_W1, v_W1, z_W2, v_W2]::
 

@@ -40,8 +40,8 @@ from suspopt.spec.load import config_from_dict, full_car_defaults, load_config
 from suspopt.spec.resolve import auto_segments  # noqa: E402
 from suspopt.spec.schema import StudyConfig
 from suspopt.studies.robust import single_scenario  # noqa: E402
-from suspopt.verification.scales import resolve_scales  # noqa: E402
 from suspopt.transcription.problem import auto_hessian  # noqa: E402
+from suspopt.verification.scales import resolve_scales  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 #: the Hessians of the Lagrangian compared (VehicleProblem's ``hessian``)

@@ -991,107 +991,122 @@ class SpringDamperUnit:
         ``damper_curve`` the damper is linear, ``damping`` [N s/m] (0 if None; the caller
         checks those two under its own keys). Raises :class:`~suspopt.errors.ConfigError`
         listing every problem of the subtables (keys ``key.<slot>.*``)."""
-        errors: list[str] = []
-
-        def where(slot: str) -> str:
-            return f'{key}.{slot}' if key else slot
-
-        def numbers(table: Mapping[str, Any], name: str, slot: str, required=True) -> tuple:
-            val = table.get(name)
-            if val is None and not required:
-                return ()
-            if (
-                not isinstance(val, list)
-                or not val
-                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
-            ):
-                errors.append(f'{where(slot)}.{name}: must be a list of numbers, got {val!r}')
-                return ()
-            return tuple(float(v) for v in val)
-
-        def number(table: Mapping[str, Any], name: str, slot: str, default=None) -> float:
-            val = table.get(name, default)
-            if isinstance(val, bool) or not isinstance(val, (int, float)):
-                errors.append(
-                    f'{where(slot)}.{name}: '
-                    + ('missing value' if val is None else f'must be a number, got {val!r}')
-                )
-                return math.nan
-            return float(val)
-
-        def table(slot: str, allowed: set[str]) -> Mapping[str, Any] | None:
-            t = data.get(slot)
-            if t is None:
-                return None
-            if not isinstance(t, Mapping):
-                errors.append(f'{where(slot)}: must be a table, got {t!r}')
-                return None
-            for k in t:
-                if k not in allowed:
-                    errors.append(
-                        f'{where(slot)}.{k}: unknown key (keys: {", ".join(sorted(allowed))})'
-                    )
-            return t
-
-        spring: Curve
-        t = table('spring_curve', {'coefficients', 'deflections', 'forces'})
-        if t is None:
-            spring = SpringCurve((0.0 if stiffness is None else float(stiffness),))
-        elif 'coefficients' in t and ('deflections' in t or 'forces' in t):
-            errors.append(
-                f'{where("spring_curve")}: give coefficients or deflections and forces, not both'
-            )
-            spring = SpringCurve((0.0,))
-        elif 'coefficients' in t:
-            spring = SpringCurve(numbers(t, 'coefficients', 'spring_curve') or (0.0,))
-        else:
-            spring = SpringTable(
-                numbers(t, 'deflections', 'spring_curve') or (0.0, 1.0),
-                numbers(t, 'forces', 'spring_curve') or (0.0, 1.0),
-            )
-        damper: Curve
-        names = [n for n, _ in DAMPER_PARAMETERS]
-        t = table('damper_curve', {*names, 'v_zero', 'knee_width', 'velocities', 'forces'})
-        if t is None:
-            damper = LinearDamper(0.0 if damping is None else float(damping))
-        elif 'velocities' in t or 'forces' in t:
-            extra = [k for k in t if k not in ('velocities', 'forces')]
-            if extra:
-                errors.append(
-                    f'{where("damper_curve")}: give the slopes and knees or velocities and '
-                    f'forces, not both (also given: {", ".join(extra)})'
-                )
-            damper = DamperTable(
-                numbers(t, 'velocities', 'damper_curve') or (0.0, 1.0),
-                numbers(t, 'forces', 'damper_curve') or (0.0, 1.0),
-            )
-        else:
-            vals = {n: number(t, n, 'damper_curve') for n in names}
-            damper = DamperCurve(
-                **vals,
-                v_zero=number(t, 'v_zero', 'damper_curve', 0.01),
-                knee_width=number(t, 'knee_width', 'damper_curve', 0.5),
-            )
-        stops: list[Any] = []
-        for slot, kind in (('bump_stop', BumpStop), ('rebound_stop', ReboundStop)):
-            t = table(slot, {'gap', 'coefficients'})
-            stops.append(
-                None
-                if t is None
-                else kind(number(t, 'gap', slot), numbers(t, 'coefficients', slot) or (0.0,))
-            )
-        unit = cls(spring, damper, stops[0], stops[1])
+        rd = _UnitReader(data, key)
+        spring = rd.spring(stiffness)
+        damper = rd.damper(damping)
+        bump, rebound = rd.stop('bump_stop', BumpStop), rd.stop('rebound_stop', ReboundStop)
+        unit = cls(spring, damper, bump, rebound)
+        errors = rd.errors
         if not errors:
             # the curves given (a linear spring or damper from stiffness or damping is the
             # caller's to check, under its own key)
             errors = [
                 line
                 for line in unit.problems(key, travel)
-                if any(line.startswith(f'{where(slot)}.') for slot in SLOTS if slot in data)
+                if any(line.startswith(f'{rd.where(slot)}.') for slot in SLOTS if slot in data)
             ]
         if errors:
             raise ConfigError(errors)
         return unit
+
+
+class _UnitReader:
+    """The subtables of :meth:`SpringDamperUnit.from_dict` (a ``[[forces]]`` element or a
+    vehicle's suspension table ``data`` under ``key``), every problem collected in
+    ``errors``."""
+
+    def __init__(self, data: Mapping[str, Any], key: str):
+        self.data, self.key = data, key
+        self.errors: list[str] = []
+
+    def where(self, slot: str) -> str:
+        return f'{self.key}.{slot}' if self.key else slot
+
+    def numbers(self, table: Mapping[str, Any], name: str, slot: str, required=True) -> tuple:
+        val = table.get(name)
+        if val is None and not required:
+            return ()
+        if (
+            not isinstance(val, list)
+            or not val
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
+        ):
+            self.errors.append(f'{self.where(slot)}.{name}: must be a list of numbers, got {val!r}')
+            return ()
+        return tuple(float(v) for v in val)
+
+    def number(self, table: Mapping[str, Any], name: str, slot: str, default=None) -> float:
+        val = table.get(name, default)
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            self.errors.append(
+                f'{self.where(slot)}.{name}: '
+                + ('missing value' if val is None else f'must be a number, got {val!r}')
+            )
+            return math.nan
+        return float(val)
+
+    def table(self, slot: str, allowed: set[str]) -> Mapping[str, Any] | None:
+        t = self.data.get(slot)
+        if t is None:
+            return None
+        if not isinstance(t, Mapping):
+            self.errors.append(f'{self.where(slot)}: must be a table, got {t!r}')
+            return None
+        for k in t:
+            if k not in allowed:
+                self.errors.append(
+                    f'{self.where(slot)}.{k}: unknown key (keys: {", ".join(sorted(allowed))})'
+                )
+        return t
+
+    def spring(self, stiffness: float | None) -> Curve:
+        """``spring_curve``, else a linear spring of rate ``stiffness`` (0 if None)."""
+        t = self.table('spring_curve', {'coefficients', 'deflections', 'forces'})
+        if t is None:
+            return SpringCurve((0.0 if stiffness is None else float(stiffness),))
+        if 'coefficients' in t and ('deflections' in t or 'forces' in t):
+            self.errors.append(
+                f'{self.where("spring_curve")}: give coefficients or deflections and forces, '
+                'not both'
+            )
+            return SpringCurve((0.0,))
+        if 'coefficients' in t:
+            return SpringCurve(self.numbers(t, 'coefficients', 'spring_curve') or (0.0,))
+        return SpringTable(
+            self.numbers(t, 'deflections', 'spring_curve') or (0.0, 1.0),
+            self.numbers(t, 'forces', 'spring_curve') or (0.0, 1.0),
+        )
+
+    def damper(self, damping: float | None) -> Curve:
+        """``damper_curve``, else a linear damper of rate ``damping`` (0 if None)."""
+        names = [n for n, _ in DAMPER_PARAMETERS]
+        t = self.table('damper_curve', {*names, 'v_zero', 'knee_width', 'velocities', 'forces'})
+        if t is None:
+            return LinearDamper(0.0 if damping is None else float(damping))
+        if 'velocities' in t or 'forces' in t:
+            extra = [k for k in t if k not in ('velocities', 'forces')]
+            if extra:
+                self.errors.append(
+                    f'{self.where("damper_curve")}: give the slopes and knees or velocities '
+                    f'and forces, not both (also given: {", ".join(extra)})'
+                )
+            return DamperTable(
+                self.numbers(t, 'velocities', 'damper_curve') or (0.0, 1.0),
+                self.numbers(t, 'forces', 'damper_curve') or (0.0, 1.0),
+            )
+        vals = {n: self.number(t, n, 'damper_curve') for n in names}
+        return DamperCurve(
+            **vals,
+            v_zero=self.number(t, 'v_zero', 'damper_curve', 0.01),
+            knee_width=self.number(t, 'knee_width', 'damper_curve', 0.5),
+        )
+
+    def stop(self, slot: str, kind: Any) -> Any:
+        """The stop ``slot`` (``kind``: its class), or None."""
+        t = self.table(slot, {'gap', 'coefficients'})
+        if t is None:
+            return None
+        return kind(self.number(t, 'gap', slot), self.numbers(t, 'coefficients', slot) or (0.0,))
 
 
 # ---------------------------------------------------------------- static deflection

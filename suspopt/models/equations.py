@@ -21,8 +21,8 @@ def mount_motion(
 ) -> np.ndarray:
     """Vertical motion of the chassis above each corner, ``z_C - a θ_C + y φ_C`` (the
     chassis side of eq. 9; the same expression maps rates to rates)."""
-    z_C, theta_C, phi_C = (np.asarray(x)[..., None] for x in (z_C, theta_C, phi_C))
-    return z_C - a * theta_C + y * phi_C
+    z, theta, phi = (np.asarray(v)[..., None] for v in (z_C, theta_C, phi_C))
+    return z - np.asarray(a) * theta + np.asarray(y) * phi
 
 
 def seat_acceleration(
@@ -43,7 +43,8 @@ def suspension_force(
 ) -> np.ndarray:
     """Suspension force on the chassis at each corner, eq. 9 (eq. 12 with ``z_W = q^z_U``):
     ``F_S = k_S (z_W - z_M) + c_S (v_W - v_M)``, with ``z_M`` the chassis above the corner."""
-    return k_S * (z_W - z_M) + c_S * (v_W - v_M)
+    k, c = np.asarray(k_S), np.asarray(c_S)
+    return k * (np.asarray(z_W) - np.asarray(z_M)) + c * (np.asarray(v_W) - np.asarray(v_M))
 
 
 def anti_roll_force(
@@ -71,7 +72,7 @@ def anti_roll_force(
 
 def tyre_force(k_T: ArrayLike, delta: ArrayLike, z_W: ArrayLike) -> np.ndarray:
     """Tyre force on each wheel, eq. 10 (eq. 13 with ``z_W = q^z_W``): ``F_T = k_T (δ - z_W)``."""
-    return k_T * (delta - z_W)
+    return np.asarray(k_T) * (np.asarray(delta) - np.asarray(z_W))
 
 
 def chassis_heave_acceleration(F: ArrayLike, M: float) -> np.ndarray:

@@ -32,7 +32,7 @@ class MountMotionComp(NodeComponent):
         nn, nc = self._shape
         a, y = self.options['a'], self.options['y']
         levers = [np.ones(nc)] + ([-a] if self.options['pitch'] else []) + [y]
-        for (pos, vel, pu, vu, _), lever in zip(self._pairs(), levers):
+        for pos, vel, pu, vu, _ in self._pairs():
             self.add_input(pos, shape=(nn,), units=pu)
             self.add_input(vel, shape=(nn,), units=vu)
         self.add_output('z_M', shape=(nn, nc), units='m', desc='chassis above each wheel')

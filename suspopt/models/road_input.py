@@ -52,8 +52,8 @@ class RoadInputComp(om.ExplicitComponent):
                         road, t, o['speed'], tuple(o['offsets'][c] for c in cols)
                     )
                     h[:, cols], dh[:, cols] = hk.T, dk.T
-            self._memo = (key, h, dh)
-        return self._memo[1], self._memo[2]
+            memo = self._memo = (key, h, dh)
+        return memo[1], memo[2]
 
     def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
         """The road heights at the node times (the vehicle assembly's equation)."""

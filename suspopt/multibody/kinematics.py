@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from suspopt.errors import ConfigError, MultibodyError
-from suspopt.multibody.elements import is_spring
+from suspopt.multibody.elements import PointLoad, SpringSpec, is_spring
 from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.solver import PlanarMultibodySolver
 
@@ -89,60 +89,33 @@ def kinematic_curves(
     mech = load_mechanism(mechanism, suspension=True) if isinstance(mechanism, str) else mechanism
     s = PlanarMultibodySolver(mech)
     roles = mech.roles
-    lo, hi = mech.travel if travel is None else travel
+    span = mech.travel if travel is None else travel
+    if span is None:
+        raise ConfigError(f'travel: {mech.name} has no travel range ([suspension]); give one')
+    lo, hi = span
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi) or points < 2:
         raise ConfigError(
             f'travel: need min < max and at least 2 points, got [{lo}, {hi}] with {points} points'
         )
     spring = mech.force(roles['spring'])
-    unit = getattr(spring, 'curves', None)
-    params: dict[str, float] = {}
-    if unit is not None:
-        if k is not None:
-            if 'k_S' not in unit.scalar_parameters():
-                raise ConfigError(
-                    f'k: the spring {spring.name!r} of {mech.name} is a table; it has no rate '
-                    'k_S to replace'
-                )
-            params['k_S'] = float(k)
-        k = float(unit.elastic_force(0.0, params)[1])
-    k = float(
-        spring.stiffness
-        if k is None and spring.stiffness > 0
-        else DEFAULT_SPRING_RATE
-        if k is None
-        else k
-    )
+    tyre_load = mech.force(roles['tyre_load'])
+    if not is_spring(spring) or not isinstance(tyre_load, PointLoad):
+        raise ConfigError(
+            f'suspension: {mech.name} needs a spring element as its spring and a point load '
+            'as its tyre_load'
+        )
+    unit = spring.curves
+    k, params = _spring_rate(spring, k, mech.name)
     x_c = float(mech.centre_line if centre_line is None else centre_line)
     wheel = s.marker_names.index(roles['wheel_marker'])
-    patch = s.marker_names.index(mech.force(roles['tyre_load']).marker)
+    patch = s.marker_names.index(tyre_load.marker)
     body = s.body_names.index(mech.marker(roles['wheel_marker']).body)
-    hub = s.body_names.index(mech.marker(mech.force(roles['tyre_load']).marker).body)
+    hub = s.body_names.index(mech.marker(tyre_load.marker).body)
     ref = s.marker_reference()
     # and the reference pose (the roll centre's migration), analysed with them, then split
     target = np.append(np.linspace(lo, hi, points), 0.0)
     points += 1
-    z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
-    try:
-        for _ in range(30):  # Newton on w(z) = target, all at once
-            q = s.positions(z[:, None])
-            qd = s.velocities(q, np.ones((points, 1)))
-            w = s.marker_positions(q)[:, wheel, 1] - ref[wheel, 1]
-            w1 = s.marker_velocities(q, qd)[:, wheel, 1]
-            if np.max(np.abs(w - target)) < 1e-13:
-                break
-            z = z - (w - target) / w1
-        else:
-            raise MultibodyError(
-                'the wheel travel does not follow the independent '
-                'coordinate (Newton on the travel did not converge)'
-            )
-        qdd = s.accelerations(q, qd, np.zeros((points, 1)))
-    except MultibodyError as err:
-        raise ConfigError(
-            f'travel: {mech.name} cannot follow the wheel travel '
-            f'[{lo:g}, {hi:g}] m: ' + str(err).removeprefix(f'{mech.name}: ')
-        ) from None
+    z, q, qd, qdd, w, w1 = _follow_travel(s, wheel, ref, target, (lo, hi))
     w2 = s.marker_accelerations(q, qd, qdd)[:, wheel, 1]
     sp = s.spring(
         roles['spring'], q, qd, {roles['spring']: {'stiffness': 0.0, 'damping': 0.0}}, qdd=qdd
@@ -179,6 +152,70 @@ def kinematic_curves(
         'instant_centre': ic,
     }
     return {k: v[:-1] if isinstance(v, np.ndarray) else v for k, v in out.items()}
+
+
+def _spring_rate(spring: SpringSpec, k: float | None, name: str) -> tuple[float, dict[str, float]]:
+    """The spring rate of :func:`kinematic_curves` (``k``, else the spring's, else
+    :data:`DEFAULT_SPRING_RATE`; a spring with curves: its rate at zero compression, with
+    ``k`` as its ``k_S``) and the curve parameters that give it (``name``: the
+    mechanism's)."""
+    unit = spring.curves
+    params: dict[str, float] = {}
+    if unit is not None:
+        if k is not None:
+            if 'k_S' not in unit.scalar_parameters():
+                raise ConfigError(
+                    f'k: the spring {spring.name!r} of {name} is a table; it has no rate '
+                    'k_S to replace'
+                )
+            params['k_S'] = float(k)
+        k = float(unit.elastic_force(0.0, params)[1])
+    k = float(
+        spring.stiffness
+        if k is None and spring.stiffness > 0
+        else DEFAULT_SPRING_RATE
+        if k is None
+        else k
+    )
+    return k, params
+
+
+def _follow_travel(
+    s: PlanarMultibodySolver,
+    wheel: int,
+    ref: np.ndarray,
+    target: np.ndarray,
+    span: tuple[float, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The poses where the wheel marker (index ``wheel``, reference positions ``ref``) has
+    travelled ``target`` (Newton on ``w(z) = target``, all at once): the independent
+    coordinate ``z``, ``q``, ``q̇`` and ``q̈`` at unit ``ż`` and zero ``z̈``, the travel ``w``
+    and ``∂w/∂z``. A ConfigError names the travel range ``span`` if the linkage cannot
+    follow it."""
+    name = s.mechanism.name
+    points = target.size
+    z = target + s.q0[s.ind[0]]  # the wheel marker moves about like z
+    try:
+        for _ in range(30):  # Newton on w(z) = target, all at once
+            q = s.positions(z[:, None])
+            qd = s.velocities(q, np.ones((points, 1)))
+            w = s.marker_positions(q)[:, wheel, 1] - ref[wheel, 1]
+            w1 = s.marker_velocities(q, qd)[:, wheel, 1]
+            if np.max(np.abs(w - target)) < 1e-13:
+                break
+            z = z - (w - target) / w1
+        else:
+            raise MultibodyError(
+                'the wheel travel does not follow the independent '
+                'coordinate (Newton on the travel did not converge)'
+            )
+        qdd = s.accelerations(q, qd, np.zeros((points, 1)))
+    except MultibodyError as err:
+        raise ConfigError(
+            f'travel: {name} cannot follow the wheel travel '
+            f'[{span[0]:g}, {span[1]:g}] m: ' + str(err).removeprefix(f'{name}: ')
+        ) from None
+    return z, q, qd, qdd, w, w1
 
 
 def curves_table(curves: dict[str, Any]) -> str:
@@ -277,7 +314,7 @@ def reference_wheel_rate(
             dfl = sp.deflection[0]
             if spec.name == roles['spring']:
                 a, mr = s_w**2 + dfl * s_ww, -s_w
-            elif getattr(spec, 'curves', None) is not None:  # E(x), x = -s
+            elif spec.curves is not None:  # E(x), x = -s
                 F, dF = spec.curves.elastic_force(-dfl)
                 b = b + float(dF) * s_w**2 - float(F) * s_ww + spec.preload * s_ww
             else:

@@ -18,6 +18,7 @@ geometric input is given in the global frame at the reference pose (t = 0).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -178,73 +179,27 @@ def mechanism_from_dict(
             'suspension': suspension,
         },
     )
-    bodies, names = [], set()
-    for i, b in enumerate(_list_of_tables(rd, data, 'bodies')):
-        w = f'bodies[{i}]'
-        rd.table(
-            b,
-            w,
-            {
-                'name': True,
-                'mass': True,
-                'inertia': True,
-                'position': True,
-                'angle': False,
-                'fixed': False,
-            },
-        )
-        fixed = b.get('fixed', False)
-        if not isinstance(fixed, bool):
-            rd.err(f'{w}.fixed', f'must be true or false, got {fixed!r}')
-        bodies.append(
-            Body(
-                name=rd.name(b, w, names),
-                mass=rd.number(b, 'mass', w, positive=True),
-                inertia=rd.number(b, 'inertia', w, positive=True),
-                position=rd.vec2(b, 'position', w),
-                angle=rd.number(b, 'angle', w, default=0.0),
-                fixed=bool(fixed),
-            )
-        )
+    bodies = _read_bodies(rd, data)
     rd.body_names = [b.name for b in bodies]
 
-    markers, mnames = [], set()
-    for i, m in enumerate(_list_of_tables(rd, data, 'markers')):
-        w = f'markers[{i}]'
-        rd.table(m, w, {'name': True, 'body': True, 'point': True})
-        mk = Marker(
-            name=rd.name(m, w, mnames),
-            body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
-            point=rd.vec2(m, 'point', w),
-        )
-        markers.append(mk)
-        rd.markers[mk.name] = (mk.body, mk.point)
+    markers = _read_markers(rd, data)
 
-    joints = _elements(rd, data, 'joints', JOINT_TYPES, 'joint', default_type='revolute')
-    loads = _elements(
+    seen: set[str] = set()
+    joints: list[JointSpec] = _elements(
+        rd, data, 'joints', JOINT_TYPES, 'joint', default_type='revolute'
+    )
+    loads: list[PointLoad] = _elements(
         rd,
         data,
         'loads',
         {'point_load': PointLoad},
         'load',
         default_type='point_load',
-        seen=(seen := set()),
+        seen=seen,
     )
-    forces = _elements(rd, data, 'forces', FORCE_TYPES, 'force', seen=seen)
+    forces: list[ForceSpec] = _elements(rd, data, 'forces', FORCE_TYPES, 'force', seen=seen)
 
-    independent = []
-    for i, c in enumerate(_list_of_tables(rd, data, 'independent')):
-        w = f'independent[{i}]'
-        rd.table(c, w, {'body': True, 'coordinate': True})
-        b = rd.body(c.get('body'), f'{w}.body', allow_ground=False)
-        if c.get('coordinate') not in COORDINATES:
-            rd.err(
-                f'{w}.coordinate',
-                f'must be one of {", ".join(COORDINATES)}, got {c.get("coordinate")!r}',
-            )
-        if any(bd.name == b and bd.fixed for bd in bodies):
-            rd.err(f'{w}.body', f'{b!r} is fixed and cannot be an independent coordinate')
-        independent.append((b, str(c.get('coordinate'))))
+    independent = _read_independent(rd, data, bodies)
 
     roles: dict[str, str] = {}
     travel = None
@@ -283,16 +238,85 @@ def mechanism_from_dict(
     return mech
 
 
+def _read_bodies(rd: Reader, data: dict) -> list[Body]:
+    """The ``[[bodies]]`` tables."""
+    bodies: list[Body] = []
+    names: set[str] = set()
+    for i, b in enumerate(_list_of_tables(rd, data, 'bodies')):
+        w = f'bodies[{i}]'
+        rd.table(
+            b,
+            w,
+            {
+                'name': True,
+                'mass': True,
+                'inertia': True,
+                'position': True,
+                'angle': False,
+                'fixed': False,
+            },
+        )
+        fixed = b.get('fixed', False)
+        if not isinstance(fixed, bool):
+            rd.err(f'{w}.fixed', f'must be true or false, got {fixed!r}')
+        bodies.append(
+            Body(
+                name=rd.name(b, w, names),
+                mass=rd.number(b, 'mass', w, positive=True),
+                inertia=rd.number(b, 'inertia', w, positive=True),
+                position=rd.vec2(b, 'position', w),
+                angle=rd.number(b, 'angle', w, default=0.0),
+                fixed=bool(fixed),
+            )
+        )
+    return bodies
+
+
+def _read_markers(rd: Reader, data: dict) -> list[Marker]:
+    """The ``[[markers]]`` tables (each also remembered by ``rd`` for the elements)."""
+    markers: list[Marker] = []
+    mnames: set[str] = set()
+    for i, m in enumerate(_list_of_tables(rd, data, 'markers')):
+        w = f'markers[{i}]'
+        rd.table(m, w, {'name': True, 'body': True, 'point': True})
+        mk = Marker(
+            name=rd.name(m, w, mnames),
+            body=rd.body(m.get('body'), f'{w}.body', allow_ground=True),
+            point=rd.vec2(m, 'point', w),
+        )
+        markers.append(mk)
+        rd.markers[mk.name] = (mk.body, mk.point)
+    return markers
+
+
+def _read_independent(rd: Reader, data: dict, bodies: list[Body]) -> list[tuple[str, str]]:
+    """The ``[[independent]]`` coordinates: (body, coordinate) each."""
+    independent: list[tuple[str, str]] = []
+    for i, c in enumerate(_list_of_tables(rd, data, 'independent')):
+        w = f'independent[{i}]'
+        rd.table(c, w, {'body': True, 'coordinate': True})
+        body = rd.body(c.get('body'), f'{w}.body', allow_ground=False)
+        if c.get('coordinate') not in COORDINATES:
+            rd.err(
+                f'{w}.coordinate',
+                f'must be one of {", ".join(COORDINATES)}, got {c.get("coordinate")!r}',
+            )
+        if any(bd.name == body and bd.fixed for bd in bodies):
+            rd.err(f'{w}.body', f'{body!r} is fixed and cannot be an independent coordinate')
+        independent.append((body, str(c.get('coordinate'))))
+    return independent
+
+
 def _elements(
     rd: Reader,
     data: dict,
     key: str,
-    types: dict[str, type],
+    types: Mapping[str, type[JointSpec] | type[ForceSpec]],
     kind: str,
     *,
     default_type: str | None = None,
     seen: set[str] | None = None,
-) -> list:
+) -> list[Any]:
     """Read ``[[key]]`` tables, each by the spec class of its ``type``."""
     out, seen = [], set() if seen is None else seen
     for i, table in enumerate(_list_of_tables(rd, data, key)):
@@ -301,7 +325,7 @@ def _elements(
         rd.element = f'({kind} {name!r})'
         try:
             typ = table.get('type', default_type)
-            if not isinstance(typ, (str, type(None))) or typ not in types:
+            if not isinstance(typ, str) or typ not in types:
                 have = sorted(types)
                 rd.err(
                     f'{w}.type',
@@ -445,7 +469,7 @@ def _check_tyre_direction(rd: Reader, load: PointLoad, data: dict) -> None:
 def _list_of_tables(rd: Reader, data: dict, key: str) -> list[dict]:
     val = data.get(key, [])
     if not isinstance(val, list) or not all(isinstance(v, dict) for v in val):
-        rd.err(key, 'must be an array of tables ([[%s]])' % key)
+        rd.err(key, f'must be an array of tables ([[{key}]])')
         return []
     return val
 

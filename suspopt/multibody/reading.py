@@ -84,14 +84,13 @@ class Reader:
     def unit_axis(self, data: dict, key: str, where: str) -> tuple[float, float]:
         """A direction given by any non-zero finite vector, returned normalized."""
         val = data.get(key)
-        ok = (
+        if not (
             isinstance(val, (list, tuple))
             and len(val) == 2
             and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in val)
             and all(math.isfinite(v) for v in val)
             and math.hypot(*val) > 1e-12
-        )
-        if not ok:
+        ):
             self.err(f'{where}.{key}', f'must be a non-zero finite vector [x, z], got {val!r}')
             return (math.nan, math.nan)
         norm = math.hypot(*val)

@@ -52,7 +52,7 @@ from numpy.polynomial import chebyshev as cheb
 
 from suspopt.errors import MultibodyError
 from suspopt.multibody.elements import is_spring
-from suspopt.multibody.elements.base import cross
+from suspopt.multibody.elements.base import ScalarSpringGroup, cross
 from suspopt.multibody.mechanism import Mechanism
 from suspopt.multibody.reduced_terms import (
     P_DTX,
@@ -262,7 +262,9 @@ class ReducedSuspensionModule:
         self._contact = s.marker_names.index(load.marker)
         self._spring = spring = roles['spring']
         self._linkage_end = 1 - full.chassis_end
-        grp = next(g for g in s.force_groups if spring in g.names)
+        grp = next(
+            g for g in s.force_groups if isinstance(g, ScalarSpringGroup) and spring in g.names
+        )
         masses = s.mass_diag.reshape(s.nb, 3)
         moving = np.array([not body.fixed for body in mech.bodies])
         self._m = np.where(moving, masses[:, 0], 0.0)

@@ -140,7 +140,10 @@ def simulate_mechanism(
         raise MultibodyError(
             f'{solver.mechanism.name}: simulation failed at t = {sol.t[-1]:.4g}: {sol.message}'
         )
-    qs, qds, qdds, lams = [], [], [], []
+    qs: list[np.ndarray] = []
+    qds: list[np.ndarray] = []
+    qdds: list[np.ndarray] = []
+    lams: list[np.ndarray] = []
     for k, t in enumerate(sol.t):
         if method == 'partitioned':
             guess = [qs[-1] if qs else st0.q]

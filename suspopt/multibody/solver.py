@@ -38,19 +38,22 @@ ground, torque about a given point; for a prescribed frame, the force that drive
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from suspopt.errors import ConfigError, MultibodyError
-from suspopt.multibody.elements import FixedJoint, PointLoad, PrescribedMotion
+from suspopt.multibody.elements import FixedJoint, JointSpec, PointLoad, PrescribedMotion
 from suspopt.multibody.elements.base import (
     COORDINATES,
     BodyPoints,
     CoincidenceJointGroup,
     CoincidenceSet,
+    ForceGroup,
+    JointGroup,
     Layout,
     ScalarSpringGroup,
     cross,
@@ -182,9 +185,25 @@ class PlanarMultibodySolver:
             },
         )
 
+        self._setup_joints(layout)
+        self._setup_forces(layout)
+        self._setup_partitioning(idx)
+
+        #: q_dep as a cubic spline of the single independent coordinate over the wheel
+        #: travel range (a suspension's), the start of its position analyses there; made
+        #: at the first analysis that needs it (False: none to make)
+        self._pose_spline: Callable[[np.ndarray], np.ndarray] | Literal[False] | None = None
+        self._travel_poses: dict[float, np.ndarray] | None = None
+        if mechanism.travel is not None:
+            self._travel_poses = self._check_travel(mechanism.travel)
+
+    def _setup_joints(self, layout: Layout) -> None:
+        """The joints: the mechanism's, then every fixed body welded to the ground at its
+        CG, in one group per type, with where their rows and Jacobian entries go."""
         # joints: the mechanism's, then every fixed body welded to the ground at its CG
-        specs = list(mechanism.joints) + [
-            FixedJoint(f'fixed {b.name}', (b.name, GROUND)) for b in bodies if b.fixed
+        mechanism, nb, q0e = self.mechanism, self.nb, layout.q0e
+        specs: list[JointSpec] = list(mechanism.joints) + [
+            FixedJoint(f'fixed {b.name}', (b.name, GROUND)) for b in mechanism.bodies if b.fixed
         ]
         self.nj = len(mechanism.joints)
         self.joint_names = [j.name for j in specs]
@@ -192,10 +211,10 @@ class PlanarMultibodySolver:
         first = np.cumsum([0] + [type(j).group.n_equations for j in specs])
         self.m = int(first[-1])
         self.joint_rows = [np.arange(first[k], first[k + 1]) for k in range(len(specs))]
-        self.joint_groups = []
+        self.joint_groups: list[JointGroup] = []
         for typ in dict.fromkeys(j.type for j in specs):
             members = [k for k, j in enumerate(specs) if j.type == typ]
-            g = type(specs[members[0]]).group([specs[k] for k in members], layout)
+            g: JointGroup = type(specs[members[0]]).group([specs[k] for k in members], layout)
             g.members = np.array(members, dtype=int)
             g.rows = np.array([self.joint_rows[k] for k in members], dtype=int)
             r = g.rows.ravel()
@@ -231,11 +250,12 @@ class PlanarMultibodySolver:
         self._all_coincident = (
             not self._others
             and self.m > 0
+            and self._coincidences is not None
             and np.array_equal(self._coincidences.rows, np.arange(self.m))
         )
         # joint_reactions without q: -λ_kᵀ ∂C_k/∂(x_i, z_i) of each joint's first body i, as
         # one matrix (2 nj, m), where that block does not depend on q
-        self._first_force = np.zeros((len(specs), 2, self.m))
+        self._first_force: np.ndarray = np.zeros((len(specs), 2, self.m))
         for g in self.joint_groups:
             J0 = g.jacobian(q0e[None])[0, :, 0, :, :2]  # (ne, k, 2)
             self._first_force[
@@ -250,25 +270,28 @@ class PlanarMultibodySolver:
             if not g.constant_force_jacobian and np.any(g.members < self.nj)
         ]
 
-        # force elements: the loads, then [[forces]]
+    def _setup_forces(self, layout: Layout) -> None:
+        """The force elements: the loads, then ``[[forces]]``, one group per type; and
+        gravity."""
+        mechanism, nb = self.mechanism, self.nb
         fspecs = list(mechanism.loads) + list(mechanism.forces)
         self.force_names = [f.name for f in fspecs]
         self.load_names = [f.name for f in fspecs if isinstance(f, PointLoad)]
-        self.force_groups = []
+        self.force_groups: list[ForceGroup] = []
         for typ in dict.fromkeys(f.type for f in fspecs):
-            members = [f for f in fspecs if f.type == typ]
-            self.force_groups.append(type(members[0]).group(members, layout))
+            fmembers = [f for f in fspecs if f.type == typ]
+            self.force_groups.append(type(fmembers[0]).group(fmembers, layout))
         self._force_group = {
             name: (gi, k)
             for gi, g in enumerate(self.force_groups)
             for k, name in enumerate(g.names)
         }
-        for g in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
-            g.all_zero = not any(np.any(v) for v in g.defaults.values())
-            g.given = frozenset()  # parameters given at run time (see force_values)
-            scatter = np.zeros((g.bodies.size, 3, nb + 1, 3))
-            scatter[np.arange(g.bodies.size), :, g.bodies.ravel()] = np.eye(3)
-            g.scatter = scatter.reshape(g.bodies.size * 3, 3 * (nb + 1))[:, : self.n]
+        for fg in self.force_groups:  # generalized forces (ne, S, 3) -> the bodies' (n,)
+            fg.all_zero = not any(np.any(v) for v in fg.defaults.values())
+            fg.given = frozenset()  # parameters given at run time (see force_values)
+            scatter = np.zeros((fg.bodies.size, 3, nb + 1, 3))
+            scatter[np.arange(fg.bodies.size), :, fg.bodies.ravel()] = np.eye(3)
+            fg.scatter = scatter.reshape(fg.bodies.size * 3, 3 * (nb + 1))[:, : self.n]
         # point-load groups: the columns of the ``loads`` array of their elements
         self._load_columns = {
             gi: np.array([self.load_names.index(n) for n in g.names])
@@ -282,7 +305,10 @@ class PlanarMultibodySolver:
             Qg[:, :2] += self.mass_diag.reshape(nb, 3)[:, :1] * gravity
             self._gravity_force = Qg.ravel()
 
-        # coordinate partitioning
+    def _setup_partitioning(self, idx: dict[str, int]) -> None:
+        """Coordinate partitioning: the independent and dependent coordinates, checked at
+        the reference pose, and the tangents that predict a position analysis's start."""
+        mechanism = self.mechanism
         self.ind = np.array(
             [3 * idx[b] + COORDINATES.index(c) for b, c in mechanism.independent], dtype=int
         )
@@ -315,13 +341,6 @@ class PlanarMultibodySolver:
         E = np.zeros((self.m, self._drive_rows.size))
         E[self._drive_rows, np.arange(self._drive_rows.size)] = 1.0
         self._drive_tangent0 = np.linalg.solve(Cq[:, self.dep], E)
-        #: q_dep as a cubic spline of the single independent coordinate over the wheel
-        #: travel range (a suspension's), the start of its position analyses there; made
-        #: at the first analysis that needs it (False: none to make)
-        self._pose_spline = None
-        self._travel_poses = None
-        if mechanism.travel is not None:
-            self._travel_poses = self._check_travel(mechanism.travel)
 
     # ---------------------------------------------------------------- run-time values
     def extend(self, q: np.ndarray) -> np.ndarray:
@@ -467,7 +486,7 @@ class PlanarMultibodySolver:
             if self._all_coincident:
                 return co.residual(v), Cq.reshape(N, self.m, self.n), v
         C = np.empty((N, self.m))
-        if co is not None:
+        if co is not None and v is not None:
             C[:, co.rows] = co.residual(v)
         qe = self._ext(q)
         for gi, g in self._others:
@@ -614,6 +633,7 @@ class PlanarMultibodySolver:
         parts: list = [None] * len(self.force_groups)
         for gi, (grp, v) in enumerate(zip(self.force_groups, values)):
             if v is not None:
+                assert qe is not None  # given whenever a group has values
                 Qg, parts[gi] = grp.forces(
                     qe, qde, v, None if geometry is None else geometry.get(gi)
                 )
@@ -629,15 +649,16 @@ class PlanarMultibodySolver:
         qdd: np.ndarray | None = None,
     ) -> SpringState:
         """The spring element ``name`` at N states (rate needs ``qd``, ``ℓ̈`` also ``qdd``)."""
-        gi, k = self._force_group.get(name, (None, None))
-        grp = None if gi is None else self.force_groups[gi]
-        if not isinstance(grp, ScalarSpringGroup):
+        where = self._force_group.get(name)
+        grp = None if where is None else self.force_groups[where[0]]
+        if where is None or not isinstance(grp, ScalarSpringGroup):
             springs = [
                 n for g in self.force_groups if isinstance(g, ScalarSpringGroup) for n in g.names
             ]
             raise ValueError(
                 f'{self.mechanism.name}: {name!r} is not a spring element (springs: {springs})'
             )
+        gi, k = where
         qe = self._ext(q)
         qde = None if qd is None else self._ext(qd)
         values = self.force_values(q.shape[0], None, params, only=gi)[gi]
@@ -669,6 +690,7 @@ class PlanarMultibodySolver:
         """:meth:`spring` from its group's :meth:`~ScalarSpringGroup.tension` and the
         element's line of action (N, 2, 2)."""
         grp = self.force_groups[gi]
+        assert isinstance(grp, ScalarSpringGroup)  # only springs have a spring state
         ell, ell_d, f, grad = tension
         acc = np.full(qe.shape[0], np.nan)
         if qdd is not None and qde is not None:
@@ -681,7 +703,7 @@ class PlanarMultibodySolver:
             force=f[:, k],
             direction=direction,
             end_forces=f[:, k, None, None] * direction,
-            bodies=tuple(self._name(b) for b in grp.bodies[k]),
+            bodies=(self._name(grp.bodies[k, 0]), self._name(grp.bodies[k, 1])),
         )
 
     def _name(self, index: int) -> str:
@@ -943,12 +965,14 @@ class PlanarMultibodySolver:
         N = q_ind.shape[0]
         driven = any(d is not None for d in drives)
         if guess is None and not driven and self._pose_spline is None:
+            travel = self.mechanism.travel
             self._pose_spline = (
                 False
-                if self._travel_poses is None or self.dof != 1
-                else self._pose_table(self.mechanism.travel, self._travel_poses) or False
+                if self._travel_poses is None or travel is None or self.dof != 1
+                else self._pose_table(travel, self._travel_poses) or False
             )
         if guess is None and not driven and self._pose_spline is not False:
+            assert self._pose_spline is not None  # made just above
             # the pose table where it has the pose, the reference's tangent elsewhere
             q = np.array(np.broadcast_to(self.q0, (N, self.n)))
             table = self._pose_spline(q_ind[:, 0])
@@ -977,7 +1001,8 @@ class PlanarMultibodySolver:
         # iterates only the states still open
         todo = None
         small = N <= SMALL_BATCH
-        out = None  # (full) C_q, max |C| and pool of the states converged so far
+        # (full) C_q, max |C| and pool of the states converged so far
+        out: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None
 
         def keep(done):  # (full) the states ``done`` of this iteration end here
             nonlocal out
@@ -988,10 +1013,11 @@ class PlanarMultibodySolver:
                     None if pool is None else np.empty((N, pool.shape[1])),
                 )
             idx = np.flatnonzero(done) if todo is None else todo[done]
-            out[0][idx] = Cq[done]
-            out[1][idx] = err[done]
-            if pool is not None:
-                out[2][idx] = pool[done]
+            out_Cq, out_err, out_pool = out
+            out_Cq[idx] = Cq[done]
+            out_err[idx] = err[done]
+            if pool is not None and out_pool is not None:
+                out_pool[idx] = pool[done]
 
         for it in range(self.newton_max_iter + 1):
             qa = q if todo is None else q[todo]
@@ -1004,7 +1030,9 @@ class PlanarMultibodySolver:
                     return (q, Cq, err, pool) if full else q
                 if full:
                     keep(~open_)
-                return (q,) + out if full else q
+                    assert out is not None  # kept just now
+                    return (q, *out)
+                return q
             if it == self.newton_max_iter:
                 break
             step = None
@@ -1142,7 +1170,7 @@ class PlanarMultibodySolver:
         prediction than the predicted step itself (no nearby pose: Newton found another
         assembly). A ConfigError names the travel step and the joints that lock. Returns
         the poses visited, by wheel travel."""
-        none = [None] * len(self.joint_groups)
+        none: list[np.ndarray | None] = [None] * len(self.joint_groups)
         ind0 = self.q0[self.ind]
         visited = {0.0: self.q0}
         for end in (travel[1], travel[0]):
@@ -1168,7 +1196,9 @@ class PlanarMultibodySolver:
                 visited[float(z)] = q[0]
         return visited
 
-    def _pose_table(self, travel: tuple[float, float], visited: dict[float, np.ndarray]):
+    def _pose_table(
+        self, travel: tuple[float, float], visited: dict[float, np.ndarray]
+    ) -> Callable[[np.ndarray], np.ndarray] | None:
         """The converged poses every :data:`POSE_TABLE_SPACING` of the travel range
         (started from the travel check's poses, interpolated), as a cubic spline of the
         independent coordinate: it predicts a pose there within about the Newton tolerance,
@@ -1183,7 +1213,7 @@ class PlanarMultibodySolver:
         qv = np.array([visited[x] for x in zv])
         guess = np.stack([np.interp(z, zv, qv[:, j]) for j in range(self.n)], axis=1)
         ind0 = self.q0[self.ind]
-        none = [None] * len(self.joint_groups)
+        none: list[np.ndarray | None] = [None] * len(self.joint_groups)
         try:
             q = self._positions(ind0 + z[:, None], guess, none)
             C, Cq, _ = self._analysis(q, none)  # one Newton step more: to the rounding floor
@@ -1246,7 +1276,7 @@ class ValueCache:
 def freeze(a: np.ndarray) -> np.ndarray:
     """Make ``a`` and every array it is a view of read-only (remembered values, which
     nothing may change); ``a``."""
-    b = a
+    b: np.ndarray | None = a
     while isinstance(b, np.ndarray):
         b.flags.writeable = False
         b = b.base
@@ -1255,10 +1285,11 @@ def freeze(a: np.ndarray) -> np.ndarray:
 
 def frozen(a: np.ndarray) -> bool:
     """Whether ``a`` cannot change: read-only, and so is every array it is a view of."""
-    while a is not None:
-        if a.flags.writeable:
+    b: np.ndarray | None = a
+    while b is not None:
+        if b.flags.writeable:
             return False
-        a = a.base if isinstance(a.base, np.ndarray) else None
+        b = b.base if isinstance(b.base, np.ndarray) else None
     return True
 
 

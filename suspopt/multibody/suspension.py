@@ -56,7 +56,7 @@ import numpy as np
 
 from suspopt.errors import ConfigError
 from suspopt.multibody.elements import PrescribedJoint, PrescribedMotion
-from suspopt.multibody.elements.base import cross, perp, rot_apply
+from suspopt.multibody.elements.base import ScalarSpringGroup, cross, perp, rot_apply
 from suspopt.multibody.mechanism import GROUND, Mechanism, load_mechanism
 from suspopt.multibody.solver import MultibodyState, PlanarMultibodySolver, freeze
 
@@ -398,10 +398,15 @@ class SuspensionModule:
         its chassis end, (N,)."""
         return self._spring_directions(self.solver.extend(state.q))[:, 1 - self.chassis_end, 1]
 
+    def _spring_elements(self) -> ScalarSpringGroup:
+        """The force group of the spring (:meth:`PlanarMultibodySolver.force_element`)."""
+        grp = self.solver.force_groups[self._spring_group[0]]
+        assert isinstance(grp, ScalarSpringGroup)  # the spring role is checked on reading
+        return grp
+
     def _spring_directions(self, qe: np.ndarray, geometry=None) -> np.ndarray:
         """The spring's line of action at both ends (N, 2, 2), see :meth:`spring`."""
-        gi, k = self._spring_group
-        return self.solver.force_groups[gi].directions(qe, geometry)[:, k]
+        return self._spring_elements().directions(qe, geometry)[:, self._spring_group[1]]
 
     def _spring_force(self, qe, qde, values, parts) -> np.ndarray:
         """The spring's tension (N,) from the force groups' values and what their
@@ -409,7 +414,7 @@ class SuspensionModule:
         gi, k = self._spring_group
         tension = parts[gi]
         if tension is None:
-            grp = self.solver.force_groups[gi]
+            grp = self._spring_elements()
             tension = grp.tension(qe, qde, values[gi], grp.geometry(qe))
         return tension[2][:, k]
 
@@ -443,7 +448,7 @@ class SuspensionModule:
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
             gi = self._spring_group[0]
-            geo = {gi: s.force_groups[gi].geometry(qe)}  # the spring's, once
+            geo = {gi: self._spring_elements().geometry(qe)}  # the spring's, once
             e_z = self._spring_directions(qe, geo[gi])[:, 1 - self.chassis_end, 1]
             if self.unit is None and not settings:
                 params = {
@@ -503,6 +508,7 @@ class SuspensionModule:
         parameters from ``settings`` (and ``k_S``, ``c_S``, see :meth:`dynamics`)."""
         t0 = time.perf_counter()
         s, state, pose = self.solver, kin.state, kin.pose
+        assert pose is not None  # a chassis mount's kinematics has its pose
         try:
             N = state.q.shape[0]
             loads = np.zeros((N, len(s.load_names)))
@@ -510,7 +516,7 @@ class SuspensionModule:
             params = {self.spring_name: self._spring_values(None, None, None, k_S, c_S, settings)}
             qe, qde = s.extend(state.q), s.extend(state.qd)
             gi = self._spring_group[0]
-            geo = {gi: s.force_groups[gi].geometry(qe)}
+            geo = {gi: self._spring_elements().geometry(qe)}
             values = s.force_values(N, loads, params)
             Q, parts = s.applied_forces(state.q, qe, qde, values, geo)
             frame = self.frame_accelerations(pose)
@@ -530,6 +536,7 @@ class SuspensionModule:
             known = state if isinstance(state, AnalysedState) else None
             part = None if known is None else known.partition
             if part is None:
+                assert state.Cq is not None  # kinematics gives C_q with every state
                 part = s.partition(state.Cq)
             jac = None if known is None else known.pose_memo.get('joint_jacobians')
             if jac is None:

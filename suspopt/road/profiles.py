@@ -30,7 +30,7 @@ import functools
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -43,6 +43,8 @@ class RoadProfile:
     """Base class of road profiles: height ``r(s)``, slope ``dr_ds(s)``, kinks of ``r''``."""
 
     kind: ClassVar[str] = ''
+    #: every profile is a dataclass (its fields are its study-file parameters)
+    __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
     #: made of discrete features (bumps, steps) that a collocation grid must sample
     #: whatever their frequency (:mod:`suspopt.transcription.grid`)
     transient: ClassVar[bool] = False
@@ -583,6 +585,22 @@ def road_tracks(
     if isinstance(road, ISO8608Road):
         return (road, road.track(1, separation))
     return (road,) * n_tracks
+
+
+@overload
+def wheel_road_inputs(
+    road: RoadProfile,
+    t: ArrayLike,
+    speed: float,
+    offsets: tuple[float, ...],
+    rates: Literal[True] = True,
+) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@overload
+def wheel_road_inputs(
+    road: RoadProfile, t: ArrayLike, speed: float, offsets: tuple[float, ...], rates: bool
+) -> tuple[np.ndarray, np.ndarray | None]: ...
 
 
 def wheel_road_inputs(

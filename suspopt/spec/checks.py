@@ -575,7 +575,7 @@ def _mechanism_checks(cfg: StudyConfig) -> list[str]:
     the reference pose for every spring rate of its axle's design range."""
     from suspopt.multibody.mechanism import mechanism_path
 
-    errs = []
+    errs: list[str] = []
     seen: dict[str, Any] = {}
     axles = ('front',) if cfg.vehicle.model == 'quarter_car' else ('front', 'rear')
     for i, axle in enumerate(axles):

@@ -102,7 +102,7 @@ def _rows(cls: type, instance: Any, prefix: str) -> list[tuple[str, list[str]]]:
     for f in dataclasses.fields(cls):
         key = f'{prefix}.{f.name}' if prefix else f.name
         tp, value = hints[f.name], getattr(instance, f.name)
-        if dataclasses.is_dataclass(tp):
+        if isinstance(tp, type) and dataclasses.is_dataclass(tp):
             nested += _rows(tp, value, key)
         elif key in FREE_FORM:
             nested.append((key, [FREE_FORM[key]]))

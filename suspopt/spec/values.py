@@ -53,7 +53,7 @@ def is_number(v: Any) -> bool:
 
 def parse_value(tp: Any, val: Any, key: str, errs: Problems, meta: dict) -> Any:
     origin = typing.get_origin(tp)
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return parse_dataclass(tp, val, key, errs)
     if tp is Any:
         return val
@@ -87,7 +87,7 @@ def parse_value(tp: Any, val: Any, key: str, errs: Problems, meta: dict) -> Any:
         return val
     if origin is tuple:
         item = typing.get_args(tp)[0]
-        if dataclasses.is_dataclass(item):
+        if isinstance(item, type) and dataclasses.is_dataclass(item):
             if not isinstance(val, list):
                 errs.add(key, f'must be an array of tables ([[{key}]]), got {val!r}')
                 return ()

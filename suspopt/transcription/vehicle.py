@@ -124,5 +124,6 @@ def vehicle_spec(
 def vehicle_assembly(
     config: StudyConfig, scenario: Scenario, fidelity: str, modules: dict[str, Any] | None = None
 ) -> VehicleAssembly:
-    """The vehicle model of ``config`` in ``scenario`` (:func:`suspopt.models.assembly.assemble`)."""
+    """The vehicle model of ``config`` in ``scenario``
+    (:func:`suspopt.models.assembly.assemble`)."""
     return assemble(vehicle_spec(config, scenario, fidelity, modules), fidelity)

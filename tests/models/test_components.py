@@ -303,7 +303,8 @@ def test_sparsity_check_fails_on_a_component_missing_a_nonzero():
 
 
 def test_road_profiles_match_formula():
-    """docs/roads.md: two 1-cos bumps, h = 0.05, l = 2, at 5 and 10 m; rear wheel a wheelbase behind."""
+    """docs/roads.md: two 1-cos bumps, h = 0.05, l = 2, at 5 and 10 m; the rear wheel a
+    wheelbase behind."""
     road = CosineBumps()
     s = np.array([0.0, 5.0, 6.0, 7.0, 8.0, 11.0, 12.5])
     expected = np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.05, 0.0])

@@ -14,8 +14,8 @@ import openmdao.api as om
 import pytest
 from mechanisms import raw
 
-from suspopt.errors import ConfigError
 from suspopt.curves import DamperCurve, LinearDamper, SpringCurve, SpringDamperUnit
+from suspopt.errors import ConfigError
 from suspopt.multibody.components import SuspensionDynamicsComp
 from suspopt.multibody.mechanism import mechanism_from_dict
 from suspopt.multibody.solver import PlanarMultibodySolver

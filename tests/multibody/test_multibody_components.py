@@ -185,7 +185,7 @@ def test_solver_calls_per_jacobian_do_not_grow_with_nodes(kind, form, factor, me
         n_compute = [0]
         evaluate = comp.evaluate
 
-        def counting(values):
+        def counting(values, n_compute=n_compute, evaluate=evaluate):
             n_compute[0] += 1
             return evaluate(values)
 

@@ -134,7 +134,8 @@ def test_kinematics_command(tmp_path, capsys):
         (
             ['kinematics', 'double_wishbone', '--travel=-0.1,0.4'],
             [
-                'travel: double wishbone (paper Table 2) cannot follow the wheel travel [-0.1, 0.4] m'
+                'travel: double wishbone (paper Table 2) cannot follow the wheel travel '
+                '[-0.1, 0.4] m'
             ],
         ),
         (['kinematics', 'double_wishbone', '--k', '0'], ['--k: the spring rate must be']),

@@ -165,7 +165,7 @@ def closed_form_errors(points: int = 11) -> dict[str, float]:
     L0 = g.spring_length(g.theta0)
     err = dict.fromkeys(['motion ratio', 'deflection', 'camber', 'track'], 0.0)
     for i, w in enumerate(c['travel']):
-        th = brentq(lambda t: g.travel(t) - w, g.theta0 - 0.6, g.theta0 + 0.6, xtol=1e-15)
+        th = brentq(lambda t, w=w: g.travel(t) - w, g.theta0 - 0.6, g.theta0 + 0.6, xtol=1e-15)
         mr = -(
             (g.spring_length(th + h) - g.spring_length(th - h))
             / (g.travel(th + h) - g.travel(th - h))

@@ -43,7 +43,8 @@ def test_optimum_converged(cfg, low_optimum):
 
 @pytest.mark.parametrize('where', ['initial', 'optimum'])
 def test_collocation_matches_time_marching(cfg, scales, low_optimum, where):
-    """docs/model.md / paper §4.2: every J_k within 0.1 % on the default grid, trajectories overlay."""
+    """docs/model.md, paper §4.2: every J_k within 0.1 % on the default grid; the
+    trajectories overlay."""
     design = cfg.design.initial() if where == 'initial' else low_optimum.design
     with VehicleProblem(cfg, 'low', scales) as vp:
         res = evaluate(cfg, 'low', design, scales=scales, problem=vp)

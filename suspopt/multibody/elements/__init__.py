@@ -5,7 +5,7 @@ entry below."""
 
 from __future__ import annotations
 
-from typing import Union
+from typing import TypeAlias, TypeGuard
 
 from suspopt.multibody.elements.base import ScalarSpringGroup
 from suspopt.multibody.elements.fixed import FixedJoint
@@ -22,11 +22,13 @@ JOINT_TYPES = {t.type: t for t in (RevoluteJoint, PrismaticJoint, FixedJoint, Pr
 FORCE_TYPES = {t.type: t for t in (PointLoad, SpringDamper, LinearSpringDamper)}
 
 #: any joint spec, any force spec (type hints)
-JointSpec = Union[tuple(JOINT_TYPES.values())]
-ForceSpec = Union[tuple(FORCE_TYPES.values())]
+JointSpec: TypeAlias = RevoluteJoint | PrismaticJoint | FixedJoint | PrescribedJoint
+ForceSpec: TypeAlias = PointLoad | SpringDamper | LinearSpringDamper
+#: the force types with a length, rate and tension (:func:`is_spring`)
+SpringSpec: TypeAlias = SpringDamper | LinearSpringDamper
 
 
-def is_spring(spec: object) -> bool:
+def is_spring(spec: ForceSpec) -> TypeGuard[SpringSpec]:
     """A force element with a length, rate and tension (the spring queries)."""
     return issubclass(type(spec).group, ScalarSpringGroup)
 
@@ -36,6 +38,7 @@ __all__ = [
     'ForceSpec',
     'JOINT_TYPES',
     'JointSpec',
+    'SpringSpec',
     'FixedJoint',
     'LinearSpringDamper',
     'PointLoad',

@@ -24,8 +24,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from suspopt.errors import ConfigError
 from suspopt.curves import SLOTS, SpringDamperUnit
+from suspopt.errors import ConfigError
 from suspopt.multibody.reading import GROUND
 
 COORDINATES = ('x', 'z', 'phi')
@@ -207,6 +207,15 @@ class JointGroup:
     #: ``∂C/∂(x, z)`` does not depend on q, so reaction forces follow from λ alone
     constant_force_jacobian: ClassVar[bool] = True
 
+    # set by the solver (:class:`~suspopt.multibody.solver.PlanarMultibodySolver`): the
+    # group's joints among the mechanism's, where its rows are in ``C`` (a slice when
+    # contiguous) and where its Jacobian entries go in the flattened ``C_q``
+    members: np.ndarray
+    row_index: slice | np.ndarray
+    flat: np.ndarray
+    flat_keep: np.ndarray
+    flat_mn: np.ndarray
+
     def __init__(self, specs: list[Any], layout: Layout):
         self.specs = specs
         self.names = [s.name for s in specs]
@@ -246,7 +255,10 @@ class JointGroup:
         (N, ne, S, 3) = force (x, z) and torque about the body's CG (for the ground: about
         the origin). ``lam`` (N, ne, k) are this group's multipliers; ``jacobian``: this
         group's :meth:`jacobian` at ``qe``, if the caller has it."""
-        J = self.jacobian(qe) if jacobian is None else jacobian  # (N, ne, S, k, 3)
+        if jacobian is None:
+            assert qe is not None, 'reactions: give qe or its jacobian'
+            jacobian = self.jacobian(qe)
+        J = jacobian  # (N, ne, S, k, 3)
         out = J[:, :, :, 0, :] * lam[:, :, None, 0, None]  # the sum over k, as einsum's
         for i in range(1, J.shape[3]):
             out = out + J[:, :, :, i, :] * lam[:, :, None, i, None]
@@ -433,6 +445,15 @@ class ForceGroup:
     #: names of the run-time parameters (each (N, ne); defaults from the file)
     parameters: tuple[str, ...] = ()
     n_bodies: ClassVar[int] = 2
+    #: the connected bodies' indices (ne, S), set by each type
+    bodies: np.ndarray
+
+    # set by the solver (:class:`~suspopt.multibody.solver.PlanarMultibodySolver`): all
+    # parameter defaults zero, the parameters given at run time and the map of the
+    # generalized forces (ne S 3) to the bodies' coordinates (n)
+    all_zero: bool
+    given: frozenset[str]
+    scatter: np.ndarray
 
     def __init__(self, specs: list[Any], layout: Layout):
         self.specs = specs

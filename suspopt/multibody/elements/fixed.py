@@ -10,6 +10,7 @@ A body with ``fixed = true`` is a fixed joint to the ground at its CG, ``C = q_b
 
 from __future__ import annotations
 
+import builtins
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -27,6 +28,8 @@ class FixedJoint:
     bodies: tuple[str, str]
     point: tuple[float, float] | None = None
     type: ClassVar[str] = 'fixed'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[FixedGroup]]
     keys: ClassVar[dict[str, bool]] = {'name': True, 'type': True, 'bodies': True, 'point': False}
 
     @classmethod

@@ -16,6 +16,7 @@ be > 0: the axis points from marker 0 towards marker 1.
 
 from __future__ import annotations
 
+import builtins
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -47,6 +48,8 @@ class LinearSpringDamper:
     #: bump_stop, rebound_stop); None: the linear stiffness and damping
     curves: SpringDamperUnit | None = None
     type: ClassVar[str] = 'linear_spring_damper'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[LinearSpringDamperGroup]]
     keys: ClassVar[dict[str, bool]] = {**spring_spec_keys(), 'axis': True}
 
     @classmethod

@@ -6,6 +6,7 @@ marker (``F_e`` of paper eq. 11; docs/model.md's ``-F_S`` and ``+F_T``):
 
 from __future__ import annotations
 
+import builtins
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -24,6 +25,8 @@ class PointLoad:
     direction: tuple[float, float]
     magnitude: float = 0.0
     type: ClassVar[str] = 'point_load'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[PointLoadGroup]]
     keys: ClassVar[dict[str, bool]] = {
         'name': True,
         'type': False,

@@ -12,6 +12,7 @@ as a :class:`PrescribedMotion` per joint; none given means the reference pose at
 
 from __future__ import annotations
 
+import builtins
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -28,6 +29,8 @@ class PrescribedJoint:
     name: str
     body: str
     type: ClassVar[str] = 'prescribed'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[PrescribedGroup]]
     keys: ClassVar[dict[str, bool]] = {'name': True, 'type': True, 'body': True}
 
     @property

@@ -14,6 +14,7 @@ multiplier λ_1 is the normal force between the bodies, λ_2 the torque they tra
 
 from __future__ import annotations
 
+import builtins
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -32,6 +33,8 @@ class PrismaticJoint:
     point: tuple[float, float]
     axis: tuple[float, float]
     type: ClassVar[str] = 'prismatic'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[PrismaticGroup]]
     keys: ClassVar[dict[str, bool]] = {
         'name': True,
         'type': True,

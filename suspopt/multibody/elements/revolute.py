@@ -9,6 +9,7 @@ with ``u`` the joint point in body axes: the joint applies ``-λ`` on the first 
 
 from __future__ import annotations
 
+import builtins
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -25,6 +26,8 @@ class RevoluteJoint:
     bodies: tuple[str, str]
     point: tuple[float, float]
     type: ClassVar[str] = 'revolute'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[RevoluteGroup]]
     keys: ClassVar[dict[str, bool]] = {'name': True, 'type': False, 'bodies': True, 'point': True}
 
     @classmethod

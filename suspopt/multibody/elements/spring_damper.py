@@ -10,6 +10,7 @@ i.e. ``Q = -f (∂L/∂q)ᵀ`` with ``∂L/∂r_0 = -eᵀ``, ``∂L/∂φ_0 = -e
 
 from __future__ import annotations
 
+import builtins
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -42,6 +43,8 @@ class SpringDamper:
     #: bump_stop, rebound_stop); None: the linear stiffness and damping
     curves: SpringDamperUnit | None = None
     type: ClassVar[str] = 'spring_damper'
+    #: the group class of the type (set below its definition)
+    group: ClassVar[builtins.type[SpringDamperGroup]]
     keys: ClassVar[dict[str, bool]] = spring_spec_keys()
 
     @classmethod
