@@ -22,14 +22,15 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / 'results'
 FIGURES = ROOT / 'docs' / 'figures'
 
-#: (name, the command that writes results/<name>, title, figures to show, where it goes)
+#: (name, the command that writes results/<name>, title, figures to show, the pages it goes
+#: to: each has a marker pair ``<!-- results:<name> -->`` ... ``<!-- /results:<name> -->``)
 SECTIONS = (
     (
         'study',
         ['study', '--out', 'results/study', '--overwrite', '--quiet'],
         "The paper's two-step study (half car, two bumps at 10 m/s)",
         ('optima.png',),
-        'README.md',
+        ('README.md', 'docs/results.md'),
     ),
     (
         'full_car',
@@ -44,7 +45,7 @@ SECTIONS = (
         ],
         'The default full car (BMW E90) as an engineering study',
         ('optima.png', 'road.png'),
-        'docs/results.md',
+        ('docs/results.md',),
     ),
     (
         'robust',
@@ -59,28 +60,51 @@ SECTIONS = (
         ],
         'Robust design over four load cases',
         ('robustness.png',),
-        'docs/results.md',
+        ('docs/results.md',),
     ),
     (
         'coupling',
         ['coupling', '--out', 'results/coupling', '--overwrite', '--quiet'],
         'The coupling of the linkage: on the ground (the paper) or on the chassis',
         ('coupling.png',),
-        'docs/results.md',
+        ('docs/results.md',),
     ),
     (
         'compare',
         ['compare', '--out', 'results/compare', '--overwrite', '--quiet'],
         'Suspension topologies side by side',
-        ('compare_cross.png', 'compare_kinematics.png'),
-        'docs/results.md',
+        ('cross.png', 'kinematics.png'),
+        ('docs/results.md',),
     ),
     (
         'pareto',
         ['pareto', '--out', 'results/pareto', '--overwrite', '--quiet'],
         'Ride comfort against road holding (Pareto front, low fidelity)',
         ('pareto.png',),
-        'docs/results.md',
+        ('docs/results.md',),
+    ),
+    (
+        'pareto_mixed',
+        [
+            'pareto',
+            '--fidelity',
+            'mixed',
+            '--out',
+            'results/pareto_mixed',
+            '--overwrite',
+            '--quiet',
+        ],
+        'Ride comfort against road holding (Pareto front, multibody model)',
+        ('pareto.png',),
+        ('docs/results.md',),
+    ),
+    (
+        'multistart',
+        # a rerun resumes the sweep (finished tasks kept): no --overwrite
+        ['sweep', 'examples/multistart.toml', '--out', 'results/multistart', '--quiet'],
+        'Multistart: 16 starting designs in both models',
+        ('start.png',),
+        ('docs/results.md',),
     ),
 )
 
@@ -96,21 +120,21 @@ def run(names: set[str] | None) -> None:
             subprocess.run([sys.executable, '-m', 'suspopt.cli', *command], cwd=ROOT, check=False)
 
 
-def section(name: str, title: str, figures: tuple[str, ...], level: str) -> str | None:
-    """The Markdown of one section from ``results/<name>``, figures copied to docs/."""
+def section(name: str, title: str, figures: tuple[str, ...], page: str) -> str | None:
+    """The Markdown of one section from ``results/<name>`` for ``page`` (a level-3 heading
+    and the table; the figures copied to docs/figures/, linked relative to the page)."""
     directory = RESULTS / name
     table = directory / 'table.md'
     if not table.is_file():
         return None
     FIGURES.mkdir(parents=True, exist_ok=True)
-    lines = [f'{level} {title}', '', table.read_text().strip(), '']
-    prefix = '' if level == '##' and name == 'study' else '../'
+    lines = [f'### {title}', '', table.read_text().strip(), '']
+    where = 'docs/figures' if page == 'README.md' else 'figures'
     for fig in figures:
         src = directory / 'figures' / fig
         if src.is_file():
             dst = FIGURES / f'{name}_{fig}'
             shutil.copyfile(src, dst)
-            where = 'docs/figures' if prefix == '' else 'figures'
             lines += [f'![{name} {fig[:-4]}]({where}/{dst.name})', '']
     return '\n'.join(lines)
 
@@ -125,15 +149,15 @@ def replace_between(text: str, name: str, body: str) -> str:
 
 
 def render() -> None:
-    for name, _, title, figures, page in SECTIONS:
-        path = ROOT / page
-        level = '###' if page == 'README.md' else '##'
-        body = section(name, title, figures, level)
-        if body is None:
-            print(f'{name}: no results/{name}/table.md, section left as it was')
-            continue
-        path.write_text(replace_between(path.read_text(), name, body))
-        print(f'{name}: rendered into {page}')
+    for name, _, title, figures, pages in SECTIONS:
+        for page in pages:
+            path = ROOT / page
+            body = section(name, title, figures, page)
+            if body is None:
+                print(f'{name}: no results/{name}/table.md, section left as it was')
+                break
+            path.write_text(replace_between(path.read_text(), name, body))
+            print(f'{name}: rendered into {page}')
 
 
 def main() -> None:
