@@ -13,6 +13,7 @@ A section whose directory is missing is left as it was.
 from __future__ import annotations
 
 import argparse
+import json
 import shutil
 import subprocess
 import sys
@@ -45,7 +46,7 @@ SECTIONS = (
         ],
         'The default full car (BMW E90) as an engineering study',
         ('optima.png', 'road.png'),
-        ('docs/results.md',),
+        ('README.md', 'docs/results.md'),
     ),
     (
         'robust',
@@ -109,6 +110,40 @@ SECTIONS = (
 )
 
 
+#: (benchmark result, figures under docs/figures it writes, pages): its section rendered
+#: from ``benchmarks/results/<name>.json`` (``benchmarks/_common.write_result``) between
+#: ``<!-- benchmark:NAME -->`` markers; re-measured by the command the file names
+BENCHMARKS = (
+    ('quarter_car_closed_form', (), ('README.md',)),
+    ('spectral_time_domain', ('spectral_time_domain.png',), ('README.md',)),
+    ('nonlinear_damper', ('nonlinear_damper.png',), ('README.md',)),
+    ('codesign', ('codesign.png',), ('README.md',)),
+)
+
+
+def benchmark_section(name: str, figures: tuple[str, ...], page: str) -> str | None:
+    """The Markdown of a benchmark's result file for ``page``, or None without one."""
+    path = ROOT / 'benchmarks' / 'results' / f'{name}.json'
+    if not path.is_file():
+        return None
+    rec = json.loads(path.read_text())
+    if 'markdown' not in rec:
+        return None
+    where = 'docs/figures' if page == 'README.md' else 'figures'
+    lines = [
+        f'### {rec["title"]}',
+        '',
+        rec['markdown'].strip(),
+        '',
+        f'Measured by `{rec["command"]}` ({rec["date"][:10]}, {rec["machine"]}).',
+        '',
+    ]
+    for fig in figures:
+        if (FIGURES / fig).is_file():
+            lines += [f'![{fig[:-4]}]({where}/{fig})', '']
+    return '\n'.join(lines)
+
+
 def run(names: set[str] | None) -> None:
     """Run the commands of the sections (all, or ``names``) into ``results/``."""
     RESULTS.mkdir(exist_ok=True)
@@ -139,8 +174,8 @@ def section(name: str, title: str, figures: tuple[str, ...], page: str) -> str |
     return '\n'.join(lines)
 
 
-def replace_between(text: str, name: str, body: str) -> str:
-    begin, end = f'<!-- results:{name} -->', f'<!-- /results:{name} -->'
+def replace_between(text: str, name: str, body: str, kind: str = 'results') -> str:
+    begin, end = f'<!-- {kind}:{name} -->', f'<!-- /{kind}:{name} -->'
     if begin not in text or end not in text:
         raise SystemExit(f'no markers {begin} ... {end}')
     head, rest = text.split(begin, 1)
@@ -157,6 +192,15 @@ def render() -> None:
                 print(f'{name}: no results/{name}/table.md, section left as it was')
                 break
             path.write_text(replace_between(path.read_text(), name, body))
+            print(f'{name}: rendered into {page}')
+    for name, figures, pages in BENCHMARKS:
+        for page in pages:
+            path = ROOT / page
+            body = benchmark_section(name, figures, page)
+            if body is None:
+                print(f'{name}: no benchmarks/results/{name}.json, section left as it was')
+                break
+            path.write_text(replace_between(path.read_text(), name, body, 'benchmark'))
             print(f'{name}: rendered into {page}')
 
 
