@@ -433,8 +433,17 @@ def test_a_dead_local_worker_charges_only_its_own_task_retry_failed_reruns_it(tm
 
 
 # --------------------------------------------------------------------------- external cluster
+@pytest.fixture
+def cluster(_cluster_processes):
+    """The module's cluster with both workers up (a test before may have killed one: its
+    nanny restarts it, on a loaded machine after a while)."""
+    address, client = _cluster_processes
+    client.wait_for_workers(2, timeout=120)
+    return address, client
+
+
 @pytest.fixture(scope='module')
-def cluster(tmp_path_factory):
+def _cluster_processes(tmp_path_factory):
     """A real ``dask scheduler`` and two ``dask worker`` processes (nannies restart a
     killed worker; the scheduler lets a task survive one worker death)."""
     from distributed import Client
