@@ -32,7 +32,18 @@ class DesignKind:
 SPRING = DesignKind('k_S', 'spring rate', 'N/m', 'N/m', 'N/m')
 DAMPER = DesignKind('c_S', 'damping', 'N*s/m', 'N·s/m', 'N s/m')
 ANTI_ROLL_BAR = DesignKind('k_R', 'anti-roll bar rate', 'N*m/rad', 'N·m/rad', 'N m/rad', True)
-KINDS: dict[str, DesignKind] = {k.symbol: k for k in (SPRING, DAMPER, ANTI_ROLL_BAR)}
+#: the gains of a state-feedback controller (``docs/codesign.md``): skyhook (on the body's
+#: velocity above the corner), groundhook (on the wheel's), travel and travel rate
+SKYHOOK = DesignKind('g_sky', 'skyhook gain', 'N*s/m', 'N·s/m', 'N s/m')
+GROUNDHOOK = DesignKind('g_gnd', 'groundhook gain', 'N*s/m', 'N·s/m', 'N s/m')
+TRAVEL_GAIN = DesignKind('g_tr', 'travel gain', 'N/m', 'N/m', 'N/m')
+RATE_GAIN = DesignKind('g_rt', 'travel-rate gain', 'N*s/m', 'N·s/m', 'N s/m')
+KINDS: dict[str, DesignKind] = {
+    k.symbol: k
+    for k in (SPRING, DAMPER, ANTI_ROLL_BAR, SKYHOOK, GROUNDHOOK, TRAVEL_GAIN, RATE_GAIN)
+}
+#: the feedback gains' kinds (per-corner settings of the controller block)
+GAIN_KINDS = ('g_sky', 'g_gnd', 'g_tr', 'g_rt')
 
 #: OpenMDAO units of each kind (by symbol)
 DESIGN_UNITS: dict[str, str] = {s: k.units for s, k in KINDS.items()}
@@ -75,7 +86,8 @@ def design_id(name: str) -> DesignId:
 
 
 def design_kind(name: str) -> str:
-    """``k_S``, ``c_S`` or ``k_R`` of a design variable's name (``k_S1``, ``c_S2L``, ``k_R1``)."""
+    """``k_S``, ``c_S``, ``k_R`` or a gain's symbol of a design variable's name
+    (``k_S1``, ``c_S2L``, ``k_R1``, ``g_sky1``)."""
     return design_id(name).kind.symbol
 
 
@@ -107,7 +119,7 @@ def corner_of_design(
     names: tuple[str, ...], labels: tuple[str, ...]
 ) -> dict[str, list[tuple[str, int]]]:
     """Where each design variable acts: ``{name: [(setting, index), ...]}`` with setting
-    ``k_S``/``c_S`` (index: a corner) or ``k_R`` (index: a bar, in axle order). A per-axle
+    ``k_S``/``c_S``/a gain (index: a corner) or ``k_R`` (index: a bar, in axle order). A per-axle
     variable (``k_S1``) acts on every corner of its axle, a per-corner one (``k_S1L``) on
     its own."""
     ids = {n: design_id(n) for n in names}

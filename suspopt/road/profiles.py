@@ -382,13 +382,22 @@ class CSVRoad(RoadProfile):
     """A measured road: CSV of distance [m] and height [m], one point per row.
 
     A header row is allowed. The profile is a cubic spline through the points
-    (``scipy.interpolate.CubicSpline``, not-a-knot), so height and slope are continuous.
-    Before the first point (the rear wheel at t = 0 sits a wheelbase behind the front one)
-    the road continues flat at the first height. The data must cover the whole drive.
+    (``scipy.interpolate.CubicSpline(bc_type='not-a-knot')``, MATLAB's ``spline``), so
+    height, slope and curvature are continuous. Before the first point (the rear wheel at
+    t = 0 sits a wheelbase behind the front one) the road continues flat at the first
+    height. The data must cover the whole drive.
+
+    ``relative_to_start``: the heights are taken relative to the profile's height at
+    ``s = 0``, where the front wheel starts: the zero initial state (every mass at rest
+    at height 0, the tyre undeflected) is then the vehicle standing on the road. A
+    measured profile's datum is arbitrary; without this its height at ``s = 0`` acts as
+    a step under the wheel at ``t = 0``. A rear wheel, before the first point, sees the
+    same flat continuation, so it starts on the road too.
     """
 
     kind: ClassVar[str] = 'csv'
     file: str = ''
+    relative_to_start: bool = False
 
     def _data(self) -> tuple[np.ndarray, np.ndarray]:
         return read_road_csv(self.file)
@@ -400,7 +409,9 @@ class CSVRoad(RoadProfile):
             from scipy.interpolate import CubicSpline
 
             s, h = self._data()
-            spline = CubicSpline(s, h)
+            if self.relative_to_start:
+                h = h - CubicSpline(s, h, bc_type='not-a-knot')(max(0.0, s[0]))
+            spline = CubicSpline(s, h, bc_type='not-a-knot')
             object.__setattr__(self, '_spline_cache', spline)
         return spline
 

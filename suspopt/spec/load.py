@@ -21,8 +21,10 @@ from suspopt.models.metrics import term_groups
 from suspopt.road import TWO_TRACKS
 from suspopt.spec.checks import canonical_road, layout_ok, semantic_checks
 from suspopt.spec.schema import (
+    CONTROL_KINDS,
     DESIGN_DEFAULTS,
     MODELS,
+    ControlConfig,
     DesignConfig,
     DesignVariable,
     StudyConfig,
@@ -86,10 +88,15 @@ def _merge(base: dict, override: dict) -> dict:
 
 
 def _parse_design(
-    data: Any, vehicle: VehicleConfig, errs: Problems, defaults: dict[str, Any] | None = None
+    data: Any,
+    vehicle: VehicleConfig,
+    errs: Problems,
+    defaults: dict[str, Any] | None = None,
+    control: ControlConfig | None = None,
 ) -> DesignConfig:
     """The design table; a variable not given takes the default car's entry
-    (``defaults``) or the kind's default (:data:`DESIGN_DEFAULTS`)."""
+    (``defaults``) or the kind's default (:data:`DESIGN_DEFAULTS`). A feedback
+    ``control``'s gains are design variables too."""
     defaults = defaults or {}
     if not isinstance(data, dict):
         errs.add('design', f'must be a table, got {data!r}')
@@ -101,8 +108,8 @@ def _parse_design(
     if per_corner and vehicle.model != 'full_car':
         errs.add('design.per_corner', 'only the full car has left and right corners')
         per_corner = False
-    names = design_names(vehicle, per_corner)
-    axle_names = design_names(vehicle, False) if per_corner else ()
+    names = design_names(vehicle, per_corner, control)
+    axle_names = design_names(vehicle, False, control) if per_corner else ()
     for k in data:
         if k != 'per_corner' and k not in names and k not in axle_names:
             errs.add(
@@ -114,12 +121,13 @@ def _parse_design(
     variables = {}
     for n in names:
         default = dict(zip(('initial', 'lower', 'upper'), DESIGN_DEFAULTS[design_kind(n)]))
+        axle = n[:-1] if n[-1] in 'LR' else n  # a corner's variable (k_S1L): its axle's
         default.update(
-            defaults.get(n, defaults.get(n[:4], {})) if per_corner else defaults.get(n, {})
+            defaults.get(n, defaults.get(axle, {})) if per_corner else defaults.get(n, {})
         )
         given = data.get(n, {})
         if per_corner and not given:  # a corner's variable defaults to its axle's
-            given = data.get(n[:4], {})
+            given = data.get(axle, {})
         variables[n] = parse_dataclass(
             DesignVariable,
             {**default, **given} if isinstance(given, dict) else given,
@@ -232,7 +240,11 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
     scales_data = objective.pop('scales', None) if isinstance(objective, dict) else None
     cfg = parse_dataclass(StudyConfig, {k: v for k, v in full.items() if k != 'design'}, '', errs)
     design = _parse_design(
-        design_data if design_data is not None else {}, cfg.vehicle, errs, defaults['design']
+        design_data if design_data is not None else {},
+        cfg.vehicle,
+        errs,
+        defaults['design'],
+        cfg.control if cfg.control.kind in CONTROL_KINDS else None,
     )
     terms = cfg.terms() if layout_ok(cfg.vehicle) else ()
     weights = (

@@ -12,19 +12,29 @@ In the mixed-fidelity model the multibody constraints are kept exactly (coordina
 partitioning): at every right-hand-side evaluation the dependent coordinates are solved
 by Newton's method from the wheel travel, then the augmented system gives the
 accelerations. The largest constraint residual seen is reported.
+
+An open-loop control (``docs/codesign.md``) is marched as the collocation represents it
+(:class:`~suspopt.records.control.ControlHistory`: per segment the polynomial through its
+values at the LGR points), piece by piece between the segment ends, where it may jump; a
+feedback law is a block of the assembly and is marched with the rest of the model.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from suspopt.errors import ConfigError, ModelError
 from suspopt.models.assembly import AssemblyEvaluator
+from suspopt.models.design import GAIN_KINDS, design_kind
+from suspopt.models.metrics import static_loads
 from suspopt.multibody.components import SuspensionKinematicsComp
 from suspopt.multibody.reduced import reduced_modules
+from suspopt.records.control import ControlHistory
 from suspopt.records.trajectory import Trajectory
 from suspopt.spec.schema import Scenario, StudyConfig
 from suspopt.transcription.problem import Scales
@@ -67,6 +77,9 @@ class VehicleRHS:
         for comp in self._kinematics:  # the largest constraint residual seen is reported
             comp.residual_seen = 0.0
         self.n_evals = 0
+        #: the open-loop controls, and the segment whose polynomial applies (None: by time)
+        self.controls: tuple[ControlHistory, ...] = ()
+        self.segment: int | None = None
 
     @property
     def max_constraint_residual(self) -> float:
@@ -86,6 +99,8 @@ class VehicleRHS:
         """All model signals at times ``t`` (N,) for states ``y`` (n_states, N)."""
         signals: dict[str, np.ndarray] = {'time': np.atleast_1d(t), **self.design}
         signals.update(self.unpack(y))
+        for control in self.controls:
+            signals[control.name] = control(t, self.segment)
         self.evaluator(signals)
         signals['wheel_z'] = signals[self.assembly.wheel_signal]
         return signals
@@ -111,13 +126,18 @@ def simulate(
     rtol: float = 1e-8,
     atol: float = 1e-11,
     modules: dict | None = None,
+    controls: Sequence[ControlHistory] = (),
 ) -> Trajectory:
     """Integrate a model from the zero initial state over a scenario's horizon (SPEC §1).
 
     ``design`` defaults to the configured initial design. Returns the trajectory at
     ``t_eval`` (default: 2001 points) with states, accelerations, forces and road inputs,
     and the objective integrals ``J`` at the final time (term order). The default
-    tolerances give the J_k to about 1e-8 relative."""
+    tolerances give the J_k to about 1e-8 relative.
+
+    ``controls``: the open-loop controls of a controlled car (``docs/codesign.md``), those
+    of this scenario (by name; an open-loop car needs them). The integration then also
+    stops at every segment end of theirs, where they may jump."""
     design = dict(config.design.initial() if design is None else design)
     missing = set(config.design_names()) - set(design)
     if missing:
@@ -125,7 +145,8 @@ def simulate(
     sc = _scenario(config, scenario)
     T = sc.horizon
     rhs = VehicleRHS(config, fidelity, design, sc, modules)
-    # times where the road's second derivative jumps under a wheel
+    rhs.controls = _scenario_controls(rhs, controls, sc)
+    # times where the road's second derivative jumps under a wheel, and the controls' jumps
     breaks = sorted(
         {
             (s + off) / sc.speed
@@ -133,6 +154,7 @@ def simulate(
             for s in road.breakpoints()
             for off in rhs.offsets
         }
+        | {float(b) for c in rhs.controls for b in c.breakpoints()}
         | {0.0, T}
     )
     breaks = [b for b in breaks if 0.0 <= b <= T]
@@ -145,6 +167,8 @@ def simulate(
         # the interpolant costs 3 more RHS calls per step: only when asked inside a piece
         interior = bool(np.any(mask & (t_eval > ta) & (t_eval < tb)))
         y_a = y
+        if rhs.controls:  # the segment of the controls' polynomials on this piece
+            rhs.segment = rhs.controls[0].segment_of(0.5 * (ta + tb))
         sol = solve_ivp(
             rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol, dense_output=interior
         )
@@ -166,6 +190,7 @@ def simulate(
     ts = np.concatenate(pieces_t)
     ys = np.concatenate(pieces_y, axis=1)
     wall = time.perf_counter() - t0
+    rhs.segment = None  # every time by its own segment
     values = rhs.signals(ts, ys[: rhs.n_states])
     info = {
         'rhs_evaluations': rhs.n_evals,
@@ -179,9 +204,34 @@ def simulate(
     return Trajectory(t=ts, values=values, J=y[rhs.n_states :].copy(), info=info)
 
 
+def _scenario_controls(
+    rhs: VehicleRHS, controls: Sequence[ControlHistory], sc: Scenario
+) -> tuple[ControlHistory, ...]:
+    """The open-loop controls ``rhs``'s model needs, from ``controls`` (those of scenario
+    ``sc``, by name); a missing one is an error, not a zero control."""
+    out = []
+    for c in rhs.assembly.controls:
+        mine = [h for h in controls if h.name == c.name and h.scenario in (sc.name, '')]
+        if not mine:
+            raise ValueError(
+                f'the model has the open-loop control {c.name!r}: give its history '
+                f'(scenario {sc.name!r}) to march it'
+            )
+        out.append(mine[0])
+    if len({(c.segment_ends, c.tau) for c in out}) > 1:
+        raise ValueError('the open-loop controls of one scenario must share their grid')
+    return tuple(out)
+
+
 def reference_scales(config: StudyConfig) -> Scales:
     """``s_k`` of the ``reference`` normalization, per scenario: J_k of the low-fidelity
-    model at the initial design by accurate time marching (SPEC §5)."""
+    model at the initial design by accurate time marching (SPEC §5). A controlled car
+    (``docs/codesign.md``) is normalized as its passive car (the initial design without
+    the control), and each actuator's effort ``control_<c>`` by ``F_c² T``, the squared
+    static load of its corner over the horizon: an actuator holding the corner's static
+    load throughout scores 1."""
+    if config.control.enabled:
+        return _controlled_reference_scales(config)
     out = []
     terms = config.terms()
     weights = config.objective.weights
@@ -196,4 +246,38 @@ def reference_scales(config: StudyConfig) -> Scales:
                 "the initial design; use normalization = 'custom' with scales"
             )
         out.append({t: float(x) if x > 0.0 else 1.0 for t, x in zip(terms, J)})
+    return tuple(out)
+
+
+def _controlled_reference_scales(config: StudyConfig) -> Scales:
+    """:func:`reference_scales` of a controlled car: its passive car's, and ``F_c² T``
+    for each actuator's effort."""
+    passive = dataclasses.replace(
+        config,
+        control=dataclasses.replace(config.control, kind='none', law='open_loop', corners=()),
+        design=dataclasses.replace(
+            config.design,
+            variables={
+                n: v for n, v in config.design.variables.items() if design_kind(n) not in GAIN_KINDS
+            },
+        ),
+        objective=dataclasses.replace(
+            config.objective,
+            weights={
+                t: w for t, w in config.objective.weights.items() if not t.startswith('control_')
+            },
+        ),
+    )
+    lay = config.layout()
+    static = static_loads(
+        lay,
+        config.vehicle.chassis_mass,
+        np.array([config.vehicle.axles[c.axle].wheel_mass for c in lay.corners]),
+    )
+    out = []
+    for sc, base in zip(config.scenarios(), reference_scales(passive)):
+        scales = dict(base)
+        for label in config.controlled():
+            scales[f'control_{label}'] = float(static[lay.labels.index(label)] ** 2 * sc.horizon)
+        out.append({t: scales[t] for t in config.terms()})
     return tuple(out)

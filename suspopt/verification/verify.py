@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from suspopt.records.control import ControlHistory
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
 from suspopt.records.verification import Comparison, ScenarioComparison, Verification
@@ -70,9 +71,11 @@ def march(
     *,
     modules: dict | None = None,
     keep: bool = False,
+    controls: tuple[ControlHistory, ...] = (),
 ) -> list[Marched]:
-    """Every scenario of ``design`` marched at the verification's tolerances; with
-    ``keep``, each trajectory (2001 points) is kept."""
+    """Every scenario of ``design`` marched at the verification's tolerances, with its
+    open-loop ``controls`` (``docs/codesign.md``); with ``keep``, each trajectory (2001
+    points) is kept."""
     out = []
     for i, sc in enumerate(config.scenarios()):
         tr = simulate(
@@ -84,6 +87,7 @@ def march(
             rtol=VERIFY_RTOL,
             atol=VERIFY_ATOL,
             t_eval=None if keep else np.array([0.0, sc.horizon]),
+            controls=tuple(c for c in controls if c.scenario == sc.name),
         )
         terms = dict(zip(config.terms(), (float(x) for x in tr.J)))
         out.append(
@@ -116,13 +120,15 @@ def time_marching_check(
     *,
     modules: dict | None = None,
     keep: bool = False,
+    controls: tuple[ControlHistory, ...] = (),
 ) -> tuple[Comparison, list[Trajectory]]:
-    """Time-march ``design`` in every scenario and compare with the collocation's
-    ``terms``: verified if every term with a nonzero weight agrees within
-    :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories come too."""
+    """Time-march ``design`` (and its open-loop ``controls``) in every scenario and
+    compare with the collocation's ``terms``: verified if every term with a nonzero weight
+    agrees within :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories
+    come too."""
     t0 = time.perf_counter()
     weights = config.objective.weights
-    marched = march(config, fidelity, design, scales, modules=modules, keep=keep)
+    marched = march(config, fidelity, design, scales, modules=modules, keep=keep, controls=controls)
     scenarios = []
     for m, coll in zip(marched, terms):
         diffs = {t: _rel_diff(coll[t], m.terms[t]) for t in config.terms() if weights[t] > 0.0}
@@ -171,6 +177,7 @@ def verify(
         scales,
         modules=modules,
         keep=keep,
+        controls=record.controls,
     )
     return record.with_verification(Verification.of(comparison)), trajectories
 
