@@ -58,9 +58,11 @@ def _model_problems(model: str, data: dict[str, Any]) -> list[str]:
     if model != 'quarter_car' or not isinstance(vehicle, dict):
         return []
     out = []
-    if 'rear' in vehicle:
+    # a written quarter car (StudyConfig.to_dict) carries the defaults of both: accepted
+    written = StudyConfig().to_dict()['vehicle']
+    if 'rear' in vehicle and vehicle['rear'] != written['rear']:
         out.append('vehicle.rear: a quarter car has one corner (vehicle.front)')
-    if 'chassis_pitch_inertia' in vehicle:
+    if vehicle.get('chassis_pitch_inertia', 0.0) != 0.0:
         out.append('vehicle.chassis_pitch_inertia: a quarter car does not pitch')
     return out
 

@@ -91,8 +91,14 @@ def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = Tru
     iterations it saves), the mixed fidelity (the multibody partials are finite
     differences already), short roads (about even), and evaluations (a fixed design:
     the collocation equations alone). ``benchmarks/ipopt_iterations.py --hessian
-    limited-memory,exact,auto`` measures both on every case."""
+    limited-memory,exact,auto`` measures both on every case. An open-loop control in the
+    low fidelity (``docs/codesign.md``) takes the exact Hessian: its many control values
+    enter bilinearly (a damping times a velocity), where L-BFGS needs several times the
+    iterations or stalls."""
     segments = sum(sc.segments for sc in config.scenarios())
+    if optimize_design and fidelity == 'low' and config.control.enabled:
+        if config.control.law == 'open_loop':
+            return 'exact'
     if (
         optimize_design
         and fidelity == 'low'
