@@ -433,8 +433,11 @@ def _control(spec: VehicleSpec, wheel: str, wheel_v: str) -> Iterator[Block]:
             ),
             inputs=measured[1:],
         )
-    actuator = ActiveForceComp if c.kind == 'active' else VariableDamperComp
-    yield Block('actuator', lambda nn: actuator(**kw(nn)))
+    if c.kind == 'active':
+        limits = (-c.force_max, c.force_max) if c.force_max else None
+        yield Block('actuator', lambda nn: ActiveForceComp(limits=limits, **kw(nn)))
+    else:
+        yield Block('actuator', lambda nn: VariableDamperComp(limits=(c.c_min, c.c_max), **kw(nn)))
 
 
 def _chassis(spec: VehicleSpec, forces: tuple[str, ...]) -> Iterator[Block]:
@@ -471,7 +474,14 @@ def _low_fidelity(spec: VehicleSpec) -> list[Block]:
 
 
 def _black_box(spec: VehicleSpec) -> dict[str, Any]:
-    return {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
+    """The multibody modules' options: their finite differences and, for a controlled
+    car, a Hessian without their own curvature (``docs/codesign.md``)."""
+    return {
+        'modules': spec.modules,
+        'fd_form': spec.fd_form,
+        'fd_step': spec.fd_step,
+        **({'hessian_frozen': True} if spec.control is not None else {}),
+    }
 
 
 def _actuated(spec: VehicleSpec) -> dict[str, Any]:

@@ -62,12 +62,37 @@ def skyhook_demand(g_sky: Any, g_gnd: Any, v_M: Any, v_W: Any) -> np.ndarray:
     return -np.asarray(g_sky) * v_M + np.asarray(g_gnd) * v_W
 
 
+def saturate(x: np.ndarray, limits: tuple[float, float] | None) -> np.ndarray:
+    """``x`` within the hardware's ``limits`` (None: none): what an actuator or damper
+    commanded beyond its range gives. Where the optimizer sets the command (the nodes,
+    strictly inside its bounds) this is the identity; between the nodes, where a
+    polynomial through bang-bang values overshoots, it is the hardware's limit."""
+    if limits is None:
+        return x
+    lo, hi = limits
+    return np.where(x.real < lo, lo, np.where(x.real > hi, hi, x))
+
+
+def saturate_slope(x: np.ndarray, limits: tuple[float, float] | None) -> np.ndarray:
+    """``d saturate / dx``: 1 within the limits, 0 beyond."""
+    if limits is None:
+        return np.ones(x.shape)
+    return ((x.real >= limits[0]) & (x.real <= limits[1])).astype(float)
+
+
 class ControlComponent(NodeComponent):
     """Shared options and partial patterns of the controlled corners."""
 
     def initialize(self) -> None:
         super().initialize()
         self.options.declare('controlled', types=tuple, desc='indices of the controlled corners')
+        self.options.declare(
+            'limits',
+            types=tuple,
+            default=None,
+            allow_none=True,
+            desc="the hardware's range of the command (saturation); None: unlimited",
+        )
 
     @property
     def _idx(self) -> np.ndarray:
@@ -133,9 +158,10 @@ class StrutRateComp(NodeComponent):
 
 class ActiveForceComp(ControlComponent):
     """An actuator force ``u`` at each controlled corner (``u_A``: a Dymos control or a
-    feedback law's output): ``F_A`` on the vehicle (zero elsewhere), the actuator's force
-    ``u_F = u`` (its square is the control effort) and the power it absorbs,
-    ``P_A = u v_A`` (negative while it drives the suspension)."""
+    feedback law's output, saturated at the actuator's ``limits``, :func:`saturate`):
+    ``F_A`` on the vehicle (zero elsewhere), the actuator's force ``u_F = u`` (its square
+    is the control effort) and the power it absorbs, ``P_A = u v_A`` (negative while it
+    drives the suspension)."""
 
     def setup(self) -> None:
         nn, nc = self._shape
@@ -151,7 +177,7 @@ class ActiveForceComp(ControlComponent):
         self._pick_partials('P_A', 'v_A')
 
     def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
-        u = np.asarray(inputs['u_A'])
+        u = saturate(np.asarray(inputs['u_A']), self.options['limits'])
         return {
             'F_A': self._scattered(u),
             'u_F': u.copy(),
@@ -159,17 +185,19 @@ class ActiveForceComp(ControlComponent):
         }
 
     def compute_partials(self, inputs, partials) -> None:
-        u = np.asarray(inputs['u_A'])
-        partials['F_A', 'u_A'] = 1.0
-        partials['u_F', 'u_A'] = 1.0
-        partials['P_A', 'u_A'] = self._picked(inputs['v_A']).ravel()
+        raw = np.asarray(inputs['u_A'])
+        u, ds = saturate(raw, self.options['limits']), saturate_slope(raw, self.options['limits'])
+        partials['F_A', 'u_A'] = ds.ravel()
+        partials['u_F', 'u_A'] = ds.ravel()
+        partials['P_A', 'u_A'] = (ds * self._picked(inputs['v_A'])).ravel()
         partials['P_A', 'v_A'] = u.ravel()
 
 
 class VariableDamperComp(ControlComponent):
-    """A semi-active damper of coefficient ``c(t)`` (``c_A``) at each controlled corner:
-    its force ``u_F = c v_A`` (``F_A`` on the vehicle, zero elsewhere) and the power it
-    dissipates, ``P_A = c v_A² >= 0`` for ``c >= 0``."""
+    """A semi-active damper of coefficient ``c(t)`` (``c_A``, saturated at its range
+    ``limits`` = (c_min, c_max), :func:`saturate`) at each controlled corner: its force
+    ``u_F = c v_A`` (``F_A`` on the vehicle, zero elsewhere) and the power it dissipates,
+    ``P_A = c v_A² >= 0``."""
 
     def setup(self) -> None:
         nn, nc = self._shape
@@ -189,19 +217,20 @@ class VariableDamperComp(ControlComponent):
         self._pick_partials('P_A', 'v_A')
 
     def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
-        c = np.asarray(inputs['c_A'])
+        c = saturate(np.asarray(inputs['c_A']), self.options['limits'])
         v = self._picked(inputs['v_A'])
         F = c * v
         return {'F_A': self._scattered(F), 'u_F': F, 'P_A': F * v}
 
     def compute_partials(self, inputs, partials) -> None:
-        c = np.asarray(inputs['c_A'])
+        raw = np.asarray(inputs['c_A'])
+        c, ds = saturate(raw, self.options['limits']), saturate_slope(raw, self.options['limits'])
         v = self._picked(inputs['v_A'])
-        partials['F_A', 'c_A'] = v.ravel()
+        partials['F_A', 'c_A'] = (ds * v).ravel()
         partials['F_A', 'v_A'] = c.ravel()
-        partials['u_F', 'c_A'] = v.ravel()
+        partials['u_F', 'c_A'] = (ds * v).ravel()
         partials['u_F', 'v_A'] = c.ravel()
-        partials['P_A', 'c_A'] = (v * v).ravel()
+        partials['P_A', 'c_A'] = (ds * v * v).ravel()
         partials['P_A', 'v_A'] = (2.0 * c * v).ravel()
 
 

@@ -50,7 +50,18 @@ class NodewiseBlackBox(om.ExplicitComponent):
 
     Subclasses call :meth:`declare_nodewise_fd` in ``setup`` and implement
     :meth:`evaluate` (the black-box call: input arrays in, output arrays out).
+
+    With the option ``hessian_frozen`` the driver's exact Hessian
+    (:mod:`suspopt.driver.hessian`) leaves out the black box's own curvature:
+    differencing its differenced partials again gives noise; its partials then count as
+    constant around each point (a Gauss-Newton treatment of the linkage, whose response
+    is nearly linear over a suspension's travel; ``docs/codesign.md``).
     """
+
+    @property
+    def hessian_frozen(self) -> bool:
+        """The Hessian of the Lagrangian treats this component's partials as constant."""
+        return bool(self.options['hessian_frozen'])
 
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
@@ -67,6 +78,12 @@ class NodewiseBlackBox(om.ExplicitComponent):
             default=1e-6,
             types=float,
             desc='absolute FD step, in the SI units of every input',
+        )
+        self.options.declare(
+            'hessian_frozen',
+            types=bool,
+            default=False,
+            desc="the driver's exact Hessian leaves out this black box's curvature",
         )
 
     def declare_nodewise_fd(

@@ -75,6 +75,28 @@ class ControlHistory(Record):
             values=tuple(tuple(float(x) for x in col) for col in v.T),
         )
 
+    @classmethod
+    def constant(
+        cls,
+        *,
+        name: str,
+        units: str,
+        corners: tuple[str, ...],
+        scenario: str,
+        horizon: float,
+        value: float,
+    ) -> ControlHistory:
+        """A control held at ``value`` over ``[0, horizon]`` (one segment, one point)."""
+        return cls(
+            name=name,
+            units=units,
+            corners=tuple(corners),
+            scenario=scenario,
+            segment_ends=(0.0, float(horizon)),
+            tau=(-1.0,),
+            values=tuple((float(value),) for _ in corners),
+        )
+
     @property
     def segments(self) -> int:
         return len(self.segment_ends) - 1
@@ -94,24 +116,25 @@ class ControlHistory(Record):
         """Where the control may jump or kink: the segment ends [s]."""
         return np.asarray(self.segment_ends)
 
-    def segment_of(self, t: float) -> int:
-        """The segment whose closed interval holds ``t`` (the left one at a shared end)."""
+    def segment_of(self, t: Any) -> Any:
+        """The segment of times ``t``: the one whose interval ``[start, end)`` holds it (the
+        segment that starts there, whose first point it is), the last at the horizon."""
         ends = np.asarray(self.segment_ends)
-        return int(np.clip(np.searchsorted(ends, t, side='left') - 1, 0, self.segments - 1))
+        return np.clip(np.searchsorted(ends, t, side='right') - 1, 0, self.segments - 1)
 
     def __call__(self, t: Any, segment: int | None = None) -> np.ndarray:
         """The control at times ``t`` (N,) → (N, corners): each time by its segment's
-        polynomial (``segment`` given: that segment's, for a time on its closed
-        interval — the time marching's piece)."""
+        polynomial (:meth:`segment_of`), or with ``segment`` by that segment's, for times on
+        its closed interval (the time marching's piece: up to its end, where the next
+        segment's polynomial may differ)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         ends = np.asarray(self.segment_ends)
-        if segment is None:
-            seg = np.clip(np.searchsorted(ends, t, side='left') - 1, 0, self.segments - 1)
-        else:
-            seg = np.full(t.shape, segment)
+        seg = self.segment_of(t) if segment is None else np.full(t.shape, segment)
         tau = np.asarray(self.tau)
         n = tau.size
         u = self.values_at_points().reshape(self.segments, n, -1)[seg]  # (N, n, corners)
+        if n == 1:  # a constant per segment
+            return u[:, 0]
         x = 2.0 * (t - ends[seg]) / (ends[seg + 1] - ends[seg]) - 1.0
         d = x[:, None] - tau[None, :]
         hit = np.abs(d) < 1e-14

@@ -87,14 +87,23 @@ def initial_guess(
     solves its collocation equations whatever the start, and simulates for the nonlinear
     mixed model.
     """
-    from suspopt.verification.timemarching import simulate
+    from suspopt.verification.timemarching import simulate, starting_controls
 
     mode = config.transcription.initial_guess
     if mode == 'zero' or (mode == 'auto' and fidelity == 'low'):
         return [None] * len(config.scenarios())
-    # a starting point only: the collocation error (~1e-4) is far above these tolerances
+    # a starting point only: the collocation error (~1e-4) is far above these tolerances;
+    # an open-loop control at its starting value, as the collocation starts it
     return [
-        simulate(config, 'low', design, scenario=i, rtol=1e-3, atol=1e-6)
+        simulate(
+            config,
+            'low',
+            design,
+            scenario=i,
+            rtol=1e-3,
+            atol=1e-6,
+            controls=starting_controls(config, i),
+        )
         for i in range(len(config.scenarios()))
     ]
 

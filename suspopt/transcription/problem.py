@@ -75,6 +75,13 @@ HESSIANS = ('limited-memory', 'exact', 'auto')
 #: the fewest segments (over all scenarios) for which ``'auto'`` takes the exact Hessian
 AUTO_EXACT_MIN_SEGMENTS = 200
 
+#: IPOPT's acceptable level for an open-loop control in the mixed fidelity (the study's
+#: ``optimizer.options`` override it): the gradient with respect to thousands of control
+#: values carries the multibody black box's finite-difference error, about 1e-6 of the
+#: dual infeasibility, which then stalls there at the optimum rather than reach ``tol``
+#: (``docs/codesign.md``)
+MIXED_CONTROL_SETTINGS = {'acceptable_tol': 1e-5, 'acceptable_iter': 5}
+
 
 def travel_limits(config: StudyConfig) -> tuple[float, float] | None:
     """(rebound, bump) of ``[constraints.travel]``, or None (no travel constraint)."""
@@ -96,9 +103,8 @@ def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = Tru
     enter bilinearly (a damping times a velocity), where L-BFGS needs several times the
     iterations or stalls."""
     segments = sum(sc.segments for sc in config.scenarios())
-    if optimize_design and fidelity == 'low' and config.control.enabled:
-        if config.control.law == 'open_loop':
-            return 'exact'
+    if optimize_design and config.control.enabled and config.control.law == 'open_loop':
+        return 'exact'
     if (
         optimize_design
         and fidelity == 'low'
@@ -241,6 +247,8 @@ class VehicleProblem:
                     cache.load_hessian(self.cache_key) if use_cache and hessian == 'exact' else None
                 ),
             )
+            if fidelity == 'mixed' and any(a.controls for a in self.assemblies):
+                self.driver.opt_settings.update(MIXED_CONTROL_SETTINGS)
             self.driver.opt_settings.update(opt.options)
 
             self.recorder_path = None

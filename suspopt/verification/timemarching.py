@@ -168,7 +168,7 @@ def simulate(
         interior = bool(np.any(mask & (t_eval > ta) & (t_eval < tb)))
         y_a = y
         if rhs.controls:  # the segment of the controls' polynomials on this piece
-            rhs.segment = rhs.controls[0].segment_of(0.5 * (ta + tb))
+            rhs.segment = int(rhs.controls[0].segment_of(0.5 * (ta + tb)))
         sol = solve_ivp(
             rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol, dense_output=interior
         )
@@ -202,6 +202,29 @@ def simulate(
     if fidelity == 'mixed':
         info['max_constraint_residual_m'] = rhs.max_constraint_residual
     return Trajectory(t=ts, values=values, J=y[rhs.n_states :].copy(), info=info)
+
+
+def starting_controls(
+    config: StudyConfig, scenario: int | Scenario = 0
+) -> tuple[ControlHistory, ...]:
+    """The open-loop controls of ``config``'s model held at their starting values
+    (:attr:`~suspopt.models.assembly.Control.initial`: no force, the softest damping):
+    what the collocation starts from."""
+    sc = _scenario(config, scenario)
+    assembly = vehicle_assembly(config, sc, 'low')
+    labels = assembly.spec.layout.labels
+    spec = assembly.spec.control
+    return tuple(
+        ControlHistory.constant(
+            name=c.name,
+            units=c.units,
+            corners=tuple(labels[k] for k in spec.corners) if spec else (),
+            scenario=sc.name,
+            horizon=sc.horizon,
+            value=c.initial,
+        )
+        for c in assembly.controls
+    )
 
 
 def _scenario_controls(

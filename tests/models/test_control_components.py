@@ -29,6 +29,9 @@ COMPONENTS = {
     'active_force': lambda: ActiveForceComp(**SOME),
     'active_force_quarter': lambda: ActiveForceComp(num_nodes=NN, corners=1, controlled=(0,)),
     'variable_damper': lambda: VariableDamperComp(**SOME),
+    # some of the random commands beyond the limits (saturated, slope 0), some within
+    'active_force_saturated': lambda: ActiveForceComp(limits=(-1.2, 1.2), **SOME),
+    'variable_damper_saturated': lambda: VariableDamperComp(limits=(-1.0, 1.4), **SOME),
     'linear_feedback': lambda: LinearFeedbackComp(**SOME),
     # the random inputs are O(1): a range, floor and width of that size put them on every
     # part of the clip (below, inside, above) and the quotient's peak
@@ -51,7 +54,8 @@ def test_check_partials(name):
 
 @pytest.mark.parametrize('name', sorted(COMPONENTS))
 def test_declared_sparsity_is_the_true_sparsity(name):
-    mismatches = sparsity_mismatches(COMPONENTS[name]())
+    # a saturated command has zero partials where it is beyond the limits
+    mismatches = sparsity_mismatches(COMPONENTS[name](), exact='saturated' not in name)
     assert not mismatches, mismatches
 
 
@@ -140,3 +144,16 @@ def test_skyhook_realizes_the_demand_where_the_damper_can():
     assert c[0] == pytest.approx(2000.0, rel=1e-4)
     assert c[1] == pytest.approx(200.0, abs=1.0)
     assert c[2] == pytest.approx(4000.0, abs=1.0)
+
+
+def test_saturation_is_the_hardwares_range():
+    """Commands beyond the range give its limit (between the nodes, where a polynomial
+    through bang-bang values overshoots); within it, the command itself."""
+    c = np.array([[-500.0, 100.0, 2500.0, 9000.0]]).T
+    v = np.full((4, 1), 0.2)
+    out = VariableDamperComp(num_nodes=4, corners=1, controlled=(0,), limits=(200.0, 3000.0))
+    F = out.evaluate({'c_A': c, 'v_A': v})['u_F'][:, 0]
+    np.testing.assert_allclose(F, [40.0, 40.0, 500.0, 600.0])
+    act = ActiveForceComp(num_nodes=4, corners=1, controlled=(0,), limits=(-800.0, 800.0))
+    u = act.evaluate({'u_A': c, 'v_A': v})['u_F'][:, 0]
+    np.testing.assert_allclose(u, [-500.0, 100.0, 800.0, 800.0])
