@@ -98,12 +98,14 @@ def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = Tru
     iterations it saves), the mixed fidelity (the multibody partials are finite
     differences already), short roads (about even), and evaluations (a fixed design:
     the collocation equations alone). ``benchmarks/ipopt_iterations.py --hessian
-    limited-memory,exact,auto`` measures both on every case. An open-loop control in the
-    low fidelity (``docs/codesign.md``) takes the exact Hessian: its many control values
-    enter bilinearly (a damping times a velocity), where L-BFGS needs several times the
-    iterations or stalls."""
+    limited-memory,exact,auto`` measures both on every case. A controlled car
+    (``docs/codesign.md``) takes the exact Hessian, in both fidelities (the linkages' own
+    curvature left out, ``hessian_frozen``): an open-loop control's many values make the
+    reduced Hessian ill-conditioned (the dynamics filter their fast components, only the
+    effort term weighs them) and a feedback law's gains multiply the states, where L-BFGS
+    needs ten times the iterations or stalls."""
     segments = sum(sc.segments for sc in config.scenarios())
-    if optimize_design and config.control.enabled and config.control.law == 'open_loop':
+    if optimize_design and config.control.enabled:
         return 'exact'
     if (
         optimize_design
