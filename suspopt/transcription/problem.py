@@ -99,14 +99,19 @@ def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = Tru
     differences already), short roads (about even), and evaluations (a fixed design:
     the collocation equations alone). ``benchmarks/ipopt_iterations.py --hessian
     limited-memory,exact,auto`` measures both on every case. A controlled car
-    (``docs/codesign.md``) takes the exact Hessian, in both fidelities (the linkages' own
-    curvature left out, ``hessian_frozen``): an open-loop control's many values make the
-    reduced Hessian ill-conditioned (the dynamics filter their fast components, only the
-    effort term weighs them) and a feedback law's gains multiply the states, where L-BFGS
-    needs ten times the iterations or stalls."""
+    (``docs/codesign.md``) takes the exact Hessian where L-BFGS needs ten times the
+    iterations or stalls: an open-loop control, in both fidelities (the linkages' own
+    curvature left out, ``hessian_frozen``; its many values make the reduced Hessian
+    ill-conditioned: the dynamics filter their fast components, only the effort term
+    weighs them), and a feedback law in the low fidelity (its gains multiply the states);
+    a feedback law in the mixed fidelity keeps L-BFGS (about as many iterations, each
+    cheaper)."""
     segments = sum(sc.segments for sc in config.scenarios())
-    if optimize_design and config.control.enabled:
-        return 'exact'
+    control = config.control
+    if optimize_design and control.enabled:
+        if control.law == 'open_loop' or fidelity == 'low':
+            return 'exact'
+        return 'limited-memory'
     if (
         optimize_design
         and fidelity == 'low'
