@@ -400,7 +400,7 @@ class CSVRoad(RoadProfile):
     relative_to_start: bool = False
 
     def _data(self) -> tuple[np.ndarray, np.ndarray]:
-        return read_road_csv(self.file)
+        return _read_road_csv_once(self.file)
 
     @property
     def _spline(self):
@@ -495,6 +495,25 @@ def _number(cell: str) -> float | None:
         return float(cell)
     except ValueError:
         return None
+
+
+def _read_road_csv_once(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`read_road_csv`, read once per file version (by its path, size and time of
+    modification): a study builds its road many times (checks, models, time marching)."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError:
+        return read_road_csv(p)  # the reader names the problem
+    return _cached_road_csv(str(p.resolve()), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_road_csv(path: str, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndarray]:
+    s, h = read_road_csv(path)
+    s.flags.writeable = False
+    h.flags.writeable = False
+    return s, h
 
 
 def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
