@@ -18,7 +18,8 @@ Sections (``--sections``, default all):
   semi-active and active, open loop and feedback; figures of the control histories
   (``docs/figures/codesign_<car>_<fidelity>.png``).
 
-Writes ``results/codesign.json`` (``write_result``). ``--quick``: fewer grids, one
+Writes ``results/codesign.json`` (``write_result``; ``--name``: another name, for a run
+of some sections only). ``--quick``: fewer grids, one
 repeat, the low fidelity only in ``compare``.
 """
 
@@ -84,6 +85,7 @@ def section_grids(grids: tuple[int, ...]) -> tuple[str, dict]:
             t0 = time.perf_counter()
             rec = optimize(cfg, 'low', scales=_scales(cfg))
             wall = time.perf_counter() - t0
+            assert rec.objective is not None, rec.status
             c = rec.verification.comparison
             march = c.objective if c is not None else float('nan')
             row = {
@@ -195,7 +197,11 @@ def section_peer(repeat: int) -> tuple[str, dict]:
     # the time marching's agreement on this grid (the grids section measures it too)
     rec = optimize(benchmark(), 'low', scales=_scales(benchmark()))
     c = rec.verification.comparison
-    agreement = abs(rec.objective - c.objective) / c.objective if c else float('nan')
+    agreement = (
+        abs(rec.objective - c.objective) / c.objective
+        if c is not None and rec.objective is not None
+        else float('nan')
+    )
     md = [
         f"The benchmark's co-design on the study file's grid ({segments} segments × 3, "
         f'10 ms), solved from the same start (b = 1e3, k = 1e4, zero states and control) to '
@@ -491,6 +497,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument('--repeat', type=int, default=3)
     ap.add_argument('--quick', action='store_true')
     ap.add_argument('--no-write', action='store_true')
+    ap.add_argument(
+        '--name', default='codesign', help='results/<name>.json (a run of some sections only)'
+    )
     args = ap.parse_args(argv)
     sections = args.sections.split(',')
     parts, data = [], {}
@@ -512,7 +521,7 @@ def main(argv: list[str] | None = None) -> None:
     text = '\n'.join(parts)
     print(text)
     if not args.no_write:
-        path = write_result('codesign', 'Control co-design', text, _plain(data))
+        path = write_result(args.name, 'Control co-design', text, _plain(data))
         print(f'wrote {path}')
 
 
