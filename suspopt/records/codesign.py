@@ -39,10 +39,9 @@ class CodesignStudy(Record):
         """The share of the open-loop bound's gain over the passive optimum that the
         feedback law realizes, ``(f_passive - f_feedback) / (f_passive - f_open_loop)``
         (None unless all three converged)."""
-        f = [self.objective(e) for e in (PASSIVE, OPEN_LOOP, FEEDBACK)]
-        if any(x is None for x in f) or f[0] == f[1]:
+        p, o, b = (self.objective(e) for e in (PASSIVE, OPEN_LOOP, FEEDBACK))
+        if p is None or o is None or b is None or p == o:
             return None
-        p, o, b = f  # type: ignore[misc]
         return (p - b) / (p - o)
 
     def derived(self) -> dict[str, Any]:
