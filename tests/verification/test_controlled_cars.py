@@ -59,17 +59,17 @@ def test_a_constant_damping_is_a_passive_damper(model, fidelity, kind):
         held = ControlHistory.constant(
             name='c_A', units='N*s/m', corners=labels, scenario='', horizon=HORIZON, value=EXTRA
         )
-        design, controls = cfg.design.initial(), (held,)
+        design, controls = cfg.design.initial(), [held]
     else:
         cfg = car(model, {'kind': 'active', 'law': 'feedback'})
         design = {
             k: (EXTRA if k.startswith('g_rt') else 0.0) if k.startswith('g_') else v
             for k, v in cfg.design.initial().items()
         }
-        controls = ()
+        controls = []
     passive = car(model, None)
     t = np.linspace(0.0, HORIZON, 81)
-    kw = dict(t_eval=t, rtol=1e-7, atol=1e-10)
+    kw: dict[str, Any] = dict(t_eval=t, rtol=1e-7, atol=1e-10)
     mine = simulate(cfg, fidelity, design, controls=controls, **kw)
     theirs = simulate(passive, fidelity, passive_design(passive), **kw)
     assert np.abs(theirs['z_C']).max() > 1e-3  # the bump moves the car
