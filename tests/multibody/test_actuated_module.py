@@ -175,3 +175,32 @@ def test_chassis_mount_dynamics_component_takes_the_actuator():
     p.set_val('comp.F_A', p.get_val('comp.F_A') + 100.0)
     p.run_model()
     np.testing.assert_allclose(p.get_val('comp.F_S') - F_S, 100.0, rtol=1e-9)
+
+
+@pytest.mark.parametrize('kind', ['kinematics_strut_rate', 'dynamics_actuator'])
+def test_black_box_calls_per_jacobian_do_not_grow_with_the_actuator(kind):
+    """The actuator's force is one more node-wise input, its compression rate one more
+    output: the module's solver calls per Jacobian are the same at 4 and 40 nodes, and the
+    dynamics take one augmented solve more per Jacobian than without the force (central
+    differences: two)."""
+    counts = {}
+    for nn in (4, 40):
+        full, _ = modules('double_wishbone', 'ground')
+        if kind == 'kinematics_strut_rate':
+            comp = SuspensionKinematicsComp(
+                num_nodes=nn, corners=1, modules=(full,), strut_rate=True, fd_form='central'
+            )
+            of, wrt = ['q_W', 'qd_W', 'v_A'], ['z_W', 'v_W', 'v_M']
+        else:
+            comp = SuspensionDynamicsComp(
+                num_nodes=nn, corners=1, modules=(full,), actuator=True, fd_form='central'
+            )
+            of = ['zdd_W', 'F_S']
+            wrt = ['z_W', 'v_W', 'z_M', 'v_M', 'F_T', 'F_A', 'k_S', 'c_S']
+        p = _component_problem(comp)
+        c0 = dict(full.solver.calls)
+        p.compute_totals(of=[f'comp.{n}' for n in of], wrt=[f'comp.{n}' for n in wrt])
+        counts[nn] = {k: full.solver.calls[k] - c0[k] for k in c0}
+    assert counts[4] == counts[40], counts
+    if kind == 'dynamics_actuator':
+        assert counts[4]['augmented'] == 2 * 8, counts  # central: two per node-wise input
