@@ -331,7 +331,13 @@ def _controlled(data: dict[str, Any], kind: str, law: str) -> Any:
     data['control'] = {'kind': kind, 'law': law}
     if kind == 'semi_active':
         data['control'].update(c_min=0.0, c_max=4000.0)
-    weights = config_from_dict(data).objective.weights
+    # the passive car's weights and the effort's group weight (per-corner control_<c>
+    # keys would override the group)
+    weights = {
+        k: v
+        for k, v in config_from_dict(data).objective.weights.items()
+        if not k.startswith('control_')
+    }
     data['objective'] = {'weights': {**weights, 'control': 0.5 if kind == 'active' else 0.0}}
     return config_from_dict(data)
 
@@ -430,7 +436,9 @@ def _figure(name: str, title: str, hist: dict[str, Any]) -> str:
     return str(path.relative_to(ROOT))
 
 
-def section_compare(fidelities: tuple[str, ...]) -> tuple[str, dict]:
+def section_compare(
+    fidelities: tuple[str, ...], cars: tuple[str, ...] = ('half', 'full')
+) -> tuple[str, dict]:
     md = [
         'Passive, semi-active (c(t) ∈ [0, 4000] N s/m in parallel with the passive damper, '
         'no effort weight) and active (effort weight 0.5 by the reference normalization) '
@@ -440,6 +448,8 @@ def section_compare(fidelities: tuple[str, ...]) -> tuple[str, dict]:
     ]
     data: dict[str, Any] = {}
     for car, make in (('half car', half_car), ('full car', full_car)):
+        if car.split()[0] not in cars:
+            continue
         for fid in fidelities:
             key = f'{car}, {fid}'
             scales = resolve_scales(make('semi_active'))
@@ -496,6 +506,8 @@ def main(argv: list[str] | None = None) -> None:
     )
     ap.add_argument('--repeat', type=int, default=3)
     ap.add_argument('--quick', action='store_true')
+    ap.add_argument('--fidelities', default='low,mixed', help='compare: comma-separated')
+    ap.add_argument('--cars', default='half,full', help='compare: comma-separated')
     ap.add_argument('--no-write', action='store_true')
     ap.add_argument(
         '--name', default='codesign', help='results/<name>.json (a run of some sections only)'
@@ -516,7 +528,8 @@ def main(argv: list[str] | None = None) -> None:
         md, data['fullcar'] = section_fullcar()
         parts += ['', '### Semi-active full car, mixed model, against the passive one', '', md]
     if 'compare' in sections:
-        md, data['compare'] = section_compare(('low',) if args.quick else ('low', 'mixed'))
+        fids = ('low',) if args.quick else tuple(args.fidelities.split(','))
+        md, data['compare'] = section_compare(fids, tuple(args.cars.split(',')))
         parts += ['', '### Passive, semi-active and active, half and full car', '', md]
     text = '\n'.join(parts)
     print(text)
