@@ -13,6 +13,7 @@ from suspopt.records.compare import (
     ModelBest,
     Topology,
 )
+from suspopt.records.control import ControlHistory
 from suspopt.records.coupling import CouplingStudy, CouplingSummary
 from suspopt.records.pareto import ParetoFront, ParetoInitial, ParetoPoint
 from suspopt.records.robust import CrossEvaluation, RobustStudy
@@ -90,6 +91,18 @@ def solve(
         verification=verification
         or (Verification.of(comparison()) if success else Verification.skipped()),
         max_constraint_residual_m=1e-13,
+        controls=tuple(
+            ControlHistory(
+                name='c_A',
+                units='N*s/m',
+                corners=('1', '2'),
+                scenario=name,
+                segment_ends=(0.0, 2.5, 5.0),
+                tau=(-1.0, 0.0),
+                values=((300.0, 800.0, 2500.0, 300.0), (300.0, 300.0, 900.0, 1200.0)),
+            )
+            for name in ('city', 'highway')
+        ),
         config=CONFIG,
     )
 

@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
         return exit_code(err)
     if getattr(args, 'command', None) == 'optimize' and not args.out:
         args.out = f'results/optimize-{args.fidelity}'
-    from suspopt.studies.run import quiet_libraries
+    from suspopt.quiet import quiet_libraries
 
     quiet_libraries()  # OpenMDAO's and Dymos' warnings about their internals
     try:

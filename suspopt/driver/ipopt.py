@@ -795,6 +795,20 @@ class IpoptDriver(Driver):
             self.options['hessian_structure'] = hs
         return hs
 
+    def _without_frozen(self, flow: DataFlow, varying: dict) -> dict:
+        """``varying`` less the partials of components whose curvature the Hessian leaves
+        out (``hessian_frozen``: a black box known only through finite differences, whose
+        differenced partials would be differenced again; its partials then count as
+        constant at each point, a Gauss-Newton treatment of it)."""
+        frozen = {
+            c.pathname
+            for c in self.problem.model.system_iter(recurse=True, typ=om.ExplicitComponent)
+            if getattr(c, 'hessian_frozen', False)
+        }
+        if not frozen:
+            return varying
+        return {k: m for k, m in varying.items() if flow.deps[k[0]][k[1]].component not in frozen}
+
     def _varying_entries(self, flow: DataFlow) -> dict | None:
         """The declared partial entries that differ between linearizations at two random
         points near the current design (None if the model fails there); the model is left
@@ -815,7 +829,7 @@ class IpoptDriver(Driver):
                     continue
                 snapshots.append(edge_values(flow))
                 if len(snapshots) == 2:
-                    return varying_entries(*snapshots)
+                    return self._without_frozen(flow, varying_entries(*snapshots))
             return None
         finally:
             data[self._dv_pos] = saved

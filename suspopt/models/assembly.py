@@ -21,6 +21,13 @@ import numpy as np
 
 from suspopt.models.chassis import ChassisHeaveComp, ChassisPitchComp, ChassisRollComp
 from suspopt.models.comfort import SeatAccelerationComp, WeightingFilterComp
+from suspopt.models.control import (
+    ActiveForceComp,
+    LinearFeedbackComp,
+    SkyGroundhookComp,
+    StrutRateComp,
+    VariableDamperComp,
+)
 from suspopt.models.design import KINDS, design_id
 from suspopt.models.forces import (
     AntiRollBarComp,
@@ -53,6 +60,57 @@ FIDELITIES = ('low', 'mixed')
 
 
 @dataclass(frozen=True)
+class ControlSpec:
+    """A controlled suspension (``docs/codesign.md``), plain values: ``kind`` ``active``
+    or ``semi_active``, ``law`` ``open_loop`` or ``feedback``, the controlled corners'
+    indices, the bounds (0: none) and the NLP's scale of an active force."""
+
+    kind: str
+    law: str
+    corners: tuple[int, ...]
+    force_max: float = 0.0
+    power_max: float = 0.0
+    c_min: float = 0.0
+    c_max: float = 0.0
+    force_scale: float = 1000.0
+    smoothing: float = 0.02
+    velocity_floor: float = 0.005
+
+    @property
+    def control(self) -> str:
+        """The name of the control signal: ``u_A`` (a force) or ``c_A`` (a damping)."""
+        return 'u_A' if self.kind == 'active' else 'c_A'
+
+
+@dataclass(frozen=True)
+class Control:
+    """A time-varying optimization variable of the model (a Dymos control), one value per
+    controlled corner at every node: its units, bounds (None: none) and the NLP's scaling
+    (``ref0``, ``ref``: the values that map to 0 and 1), and the value it starts from."""
+
+    name: str
+    units: str
+    shape: tuple[int, ...]
+    lower: float | None
+    upper: float | None
+    ref0: float
+    ref: float
+    initial: float = 0.0
+
+
+@dataclass(frozen=True)
+class PathBound:
+    """A signal of the model bounded at every node (a path constraint): its bounds and a
+    typical magnitude ``ref`` (scales the NLP, changes no result)."""
+
+    signal: str
+    units: str
+    lower: float | None
+    upper: float | None
+    ref: float
+
+
+@dataclass(frozen=True)
 class VehicleSpec:
     """Everything the model of one vehicle in one scenario needs (plain values)."""
 
@@ -74,6 +132,9 @@ class VehicleSpec:
     static_load: np.ndarray | None = None
     #: the seats where comfort is measured: (name, x ahead of, y left of the CG [m])
     seats: tuple[tuple[str, float, float], ...] = ()
+    #: an active or semi-active suspension at some corners (None: passive)
+    control: ControlSpec | None = None
+
     #: each corner's suspension hardware as curves (a :class:`~suspopt.curves.
     #: SpringDamperUnit`; None: the linear spring and damper); () every corner linear
     units: tuple = ()
@@ -157,6 +218,10 @@ class VehicleAssembly:
     blocks: tuple[Block, ...]
     states: tuple[State, ...]
     timeseries: tuple[str, ...]
+    #: the time-varying optimization variables (an open-loop control), given as signals
+    controls: tuple[Control, ...] = ()
+    #: the signals bounded at every node (an actuator's force or power)
+    path_bounds: tuple[PathBound, ...] = ()
 
     @property
     def wheel_signal(self) -> str:
@@ -211,7 +276,41 @@ def assemble(spec: VehicleSpec, fidelity: str) -> VehicleAssembly:
         blocks=tuple(blocks),
         states=states(spec),
         timeseries=_timeseries(spec, fidelity),
+        controls=controls(spec),
+        path_bounds=path_bounds(spec),
     )
+
+
+def controls(spec: VehicleSpec) -> tuple[Control, ...]:
+    """The open-loop control of ``spec`` (none for a feedback law or a passive car): an
+    actuator force per controlled corner (scaled by ``force_scale``, bounded by
+    ``force_max``), or a damping in ``[c_min, c_max]`` (scaled to [0, 1])."""
+    c = spec.control
+    if c is None or c.law != 'open_loop':
+        return ()
+    shape = (len(c.corners),)
+    if c.kind == 'active':
+        bound = c.force_max or None
+        return (
+            Control('u_A', 'N', shape, -bound if bound else None, bound, 0.0, c.force_scale, 0.0),
+        )
+    return (Control('c_A', 'N*s/m', shape, c.c_min, c.c_max, c.c_min, c.c_max, c.c_min),)
+
+
+def path_bounds(spec: VehicleSpec) -> tuple[PathBound, ...]:
+    """The actuator's bounds at every node: its power ``|P_A| <= power_max``; an active
+    force ``|u_F| <= force_max`` where a feedback law gives it (an open-loop force has the
+    bound on the control itself), a semi-active one's where given."""
+    c = spec.control
+    if c is None:
+        return ()
+    out = []
+    bounded_by_control = c.kind == 'active' and c.law == 'open_loop'
+    if c.force_max and not bounded_by_control:
+        out.append(PathBound('u_F', 'N', -c.force_max, c.force_max, c.force_max))
+    if c.power_max:
+        out.append(PathBound('P_A', 'W', -c.power_max, c.power_max, c.power_max))
+    return tuple(out)
 
 
 def _timeseries(spec: VehicleSpec, fidelity: str) -> tuple[str, ...]:
@@ -222,7 +321,12 @@ def _timeseries(spec: VehicleSpec, fidelity: str) -> tuple[str, ...]:
     if fidelity == 'mixed' and spec.mount == 'chassis':
         mixed += ('F_M',)
     metrics = ('travel',) + (('tyre_load_ratio',) if spec.static_load is not None else ())
-    return chassis + forces + mixed + metrics + (('a_w',) if spec.seats else ())
+    control: tuple[str, ...] = ()
+    if spec.control is not None:
+        control = ('F_A', 'u_F', 'P_A', 'v_A')
+        if spec.control.law == 'feedback':  # an open-loop control is in the timeseries already
+            control += (spec.control.control,)
+    return chassis + forces + mixed + metrics + (('a_w',) if spec.seats else ()) + control
 
 
 def _kw(spec: VehicleSpec, nn: int) -> dict[str, int]:
@@ -250,6 +354,8 @@ def integrand_signals(spec: VehicleSpec, wheel: str) -> tuple[tuple[str, str, in
     out += [(wheel, 'm', nc), ('F_T', 'N', nc), ('travel', 'm', nc)]
     if spec.seats:
         out.append(('a_w', 'm/s**2', len(spec.seats)))
+    if spec.control is not None:
+        out.append(('u_F', 'N', len(spec.control.corners)))
     return tuple(out)
 
 
@@ -333,6 +439,39 @@ def _forces(spec: VehicleSpec, *names: str) -> tuple[str, ...]:
     return names + (('F_R',) if spec.bars[0] else ())
 
 
+def _control(spec: VehicleSpec, wheel: str, wheel_v: str) -> Iterator[Block]:
+    """The controlled suspension (:mod:`suspopt.models.control`): the feedback law, if any,
+    then the actuator or variable damper. ``wheel``, ``wheel_v``: the signals of the
+    wheel's displacement and velocity (the feedback's measurements)."""
+    c = spec.control
+    if c is None:
+        return
+
+    def kw(nn: int) -> dict[str, Any]:
+        return {'controlled': c.corners, **_kw(spec, nn)}
+
+    measured = (('wheel_z', wheel), ('wheel_v', wheel_v))
+    if c.law == 'feedback' and c.kind == 'active':
+        yield Block('feedback', lambda nn: LinearFeedbackComp(**kw(nn)), inputs=measured)
+    elif c.law == 'feedback':
+        yield Block(
+            'feedback',
+            lambda nn: SkyGroundhookComp(
+                c_min=c.c_min,
+                c_max=c.c_max,
+                smoothing=c.smoothing,
+                velocity_floor=c.velocity_floor,
+                **kw(nn),
+            ),
+            inputs=measured[1:],
+        )
+    if c.kind == 'active':
+        limits = (-c.force_max, c.force_max) if c.force_max else None
+        yield Block('actuator', lambda nn: ActiveForceComp(limits=limits, **kw(nn)))
+    else:
+        yield Block('actuator', lambda nn: VariableDamperComp(limits=(c.c_min, c.c_max), **kw(nn)))
+
+
 def _chassis(spec: VehicleSpec, forces: tuple[str, ...]) -> Iterator[Block]:
     lay = spec.layout
     yield Block(
@@ -374,10 +513,14 @@ def _suspension(spec: VehicleSpec) -> Block:
 
 
 def _low_fidelity(spec: VehicleSpec) -> list[Block]:
-    """The low-fidelity suspension and wheels: eqs. 9, 10, 7-8 (and the bars)."""
-    forces = _forces(spec, 'F_S')
+    """The low-fidelity suspension and wheels: eqs. 9, 10, 7-8 (and the bars, and an
+    actuator in parallel with the spring-damper)."""
+    actuated = spec.control is not None
+    forces = _forces(spec, 'F_S', *(('F_A',) if actuated else ()))
     return [
         _suspension(spec),
+        *([Block('strut_rate', lambda nn: StrutRateComp(**_kw(spec, nn)))] if actuated else []),
+        *_control(spec, 'z_W', 'v_W'),
         *_anti_roll(spec, 'z_W'),
         Block('tyre', lambda nn: TyreForceComp(k_T=spec.k_T, **_kw(spec, nn))),
         Block('wheel', lambda nn: WheelDynamicsComp(m=spec.m, forces=forces, **_kw(spec, nn))),
@@ -386,7 +529,19 @@ def _low_fidelity(spec: VehicleSpec) -> list[Block]:
 
 
 def _black_box(spec: VehicleSpec) -> dict[str, Any]:
-    return {'modules': spec.modules, 'fd_form': spec.fd_form, 'fd_step': spec.fd_step}
+    """The multibody modules' options: their finite differences and, for a controlled
+    car, a Hessian without their own curvature (``docs/codesign.md``)."""
+    return {
+        'modules': spec.modules,
+        'fd_form': spec.fd_form,
+        'fd_step': spec.fd_step,
+        **({'hessian_frozen': True} if spec.control is not None else {}),
+    }
+
+
+def _actuated(spec: VehicleSpec) -> dict[str, Any]:
+    """The multibody queries' option: an actuator force along the spring-damper's line."""
+    return {'actuator': True} if spec.control is not None else {}
 
 
 def _black_box_settings(spec: VehicleSpec) -> dict[str, Any]:
@@ -405,7 +560,11 @@ def _linkage_kinematics(spec: VehicleSpec) -> Iterator[Block]:
     yield Block(
         'kinematics',
         lambda nn: SuspensionKinematicsComp(
-            mount=spec.mount, roll=lay.has_roll, **_black_box(spec), **_kw(spec, nn)
+            mount=spec.mount,
+            roll=lay.has_roll,
+            **_black_box(spec),
+            **_kw(spec, nn),
+            **({'strut_rate': True} if spec.control is not None else {}),
         ),
     )
     yield from _anti_roll(spec, 'q_W')
@@ -414,6 +573,8 @@ def _linkage_kinematics(spec: VehicleSpec) -> Iterator[Block]:
     )
     if spec.bars[0]:
         yield Block('wheel_load', lambda nn: WheelLoadComp(**_kw(spec, nn)))
+    # the actuator acts along the linkage's spring-damper (the black box's input F_A)
+    yield from _control(spec, 'q_W', 'qd_W')
 
 
 def _wheel_load(spec: VehicleSpec) -> tuple[tuple[str, str], ...]:
@@ -428,7 +589,7 @@ def _ground_mounted(spec: VehicleSpec) -> list[Block]:
         Block(
             'dynamics',
             lambda nn: SuspensionDynamicsComp(
-                **_black_box(spec), **_black_box_settings(spec), **_kw(spec, nn)
+                **_black_box(spec), **_black_box_settings(spec), **_kw(spec, nn), **_actuated(spec)
             ),
             inputs=_wheel_load(spec) + _curve_inputs(spec),
         ),
@@ -450,7 +611,11 @@ def _chassis_mounted(spec: VehicleSpec) -> list[Block]:
         Block(
             'dynamics',
             lambda nn: ChassisMountDynamicsComp(
-                roll=roll, **_black_box(spec), **_black_box_settings(spec), **_kw(spec, nn)
+                roll=roll,
+                **_black_box(spec),
+                **_black_box_settings(spec),
+                **_kw(spec, nn),
+                **_actuated(spec),
             ),
             inputs=_wheel_load(spec) + _curve_inputs(spec),
         ),

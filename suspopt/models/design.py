@@ -104,7 +104,28 @@ CURVE_KINDS: tuple[DesignKind, ...] = (
         for i in range(2, MAX_POWER + 1)
     ),
 )
-KINDS: dict[str, DesignKind] = {k.symbol: k for k in (SPRING, DAMPER, ANTI_ROLL_BAR, *CURVE_KINDS)}
+
+#: the gains of a state-feedback controller (``docs/codesign.md``): skyhook (on the body's
+#: velocity above the corner), groundhook (on the wheel's), travel and travel rate
+SKYHOOK = DesignKind('g_sky', 'skyhook gain', 'N*s/m', 'N·s/m', 'N s/m')
+GROUNDHOOK = DesignKind('g_gnd', 'groundhook gain', 'N*s/m', 'N·s/m', 'N s/m')
+TRAVEL_GAIN = DesignKind('g_tr', 'travel gain', 'N/m', 'N/m', 'N/m')
+RATE_GAIN = DesignKind('g_rt', 'travel-rate gain', 'N*s/m', 'N·s/m', 'N s/m')
+#: the feedback gains' kinds (per-corner settings of the controller block)
+GAIN_KINDS = ('g_sky', 'g_gnd', 'g_tr', 'g_rt')
+KINDS: dict[str, DesignKind] = {
+    k.symbol: k
+    for k in (
+        SPRING,
+        DAMPER,
+        ANTI_ROLL_BAR,
+        SKYHOOK,
+        GROUNDHOOK,
+        TRAVEL_GAIN,
+        RATE_GAIN,
+        *CURVE_KINDS,
+    )
+}
 
 #: OpenMDAO units of each kind (by symbol)
 DESIGN_UNITS: dict[str, str] = {s: k.units for s, k in KINDS.items()}
@@ -113,7 +134,7 @@ DESIGN_UNITS: dict[str, str] = {s: k.units for s, k in KINDS.items()}
 _SIDE_OF_LETTER = {letter: side for side, letter in SIDES.items() if letter}
 _WHERE = r'(?P<axle>[' + ''.join(AXLES) + r'])(?P<side>[LR]?)'
 _NAME = re.compile(
-    r'(?P<kind>' + '|'.join((SPRING.symbol, DAMPER.symbol, ANTI_ROLL_BAR.symbol)) + r')' + _WHERE
+    r'(?P<kind>' + '|'.join(k.symbol for k in KINDS.values() if not k.slot) + r')' + _WHERE
 )
 _CURVE_NAME = re.compile(r'(?P<kind>' + '|'.join(k.symbol for k in CURVE_KINDS) + r')_' + _WHERE)
 
@@ -163,8 +184,9 @@ def curve_variable(symbol: str, axle: int, side: int = 0) -> str:
 
 
 def design_kind(name: str) -> str:
-    """``k_S``, ``c_S``, ``k_R`` or the curve parameter (``c_bump_low``) of a design
-    variable's name (``k_S1``, ``c_S2L``, ``k_R1``, ``c_bump_low_1``)."""
+    """``k_S``, ``c_S``, ``k_R``, a feedback gain (``g_sky``) or the curve parameter
+    (``c_bump_low``) of a design variable's name (``k_S1``, ``c_S2L``, ``k_R1``, ``g_sky1``,
+    ``c_bump_low_1``)."""
     return design_id(name).kind.symbol
 
 
@@ -196,7 +218,7 @@ def corner_of_design(
     names: tuple[str, ...], labels: tuple[str, ...]
 ) -> dict[str, list[tuple[str, int]]]:
     """Where each design variable acts: ``{name: [(setting, index), ...]}`` with setting
-    ``k_S``/``c_S``/``curve_<parameter>`` (index: a corner) or ``k_R`` (index: a bar, in
+    ``k_S``/``c_S``/a gain/``curve_<parameter>`` (index: a corner) or ``k_R`` (index: a bar, in
     axle order). A per-axle variable (``k_S1``) acts on every corner of its axle, a
     per-corner one (``k_S1L``) on its own."""
     ids = {n: design_id(n) for n in names}

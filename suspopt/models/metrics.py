@@ -13,7 +13,9 @@ design-only metrics (roll gradient, ride frequencies), bounds a function of the 
   (positive in bump);
 * ``comfort_<seat>``: the ISO 2631-1 Wk-weighted vertical acceleration at a seat, and
   ``comfort_pitch``, ``comfort_roll``: the We-weighted rotational accelerations
-  (:mod:`suspopt.models.iso2631`; filter states integrated with the vehicle's).
+  (:mod:`suspopt.models.iso2631`; filter states integrated with the vehicle's);
+* ``control_<c>``: the force of an active or semi-active actuator at a controlled corner
+  (its integral of squares is the control effort, ``docs/codesign.md``).
 
 This module is the metrics' table (no OpenMDAO: the study file's checks use it); their
 components are in :mod:`suspopt.models.metric_components`.
@@ -57,6 +59,7 @@ METRICS: dict[str, Metric] = {
     'tyre_load': Metric('F_T', 'N', 'dynamic tyre load', 'road_holding'),
     'travel': Metric('travel', 'm', 'suspension travel', 'travel'),
     'comfort': Metric('a_w', 'm/s²', 'ISO 2631-1 Wk-weighted seat acceleration', 'comfort'),
+    'control': Metric('u_F', 'N', 'actuator force', 'control'),
 }
 
 
@@ -76,11 +79,15 @@ def term_units(term: str) -> str:
 
 
 def objective_terms(
-    layout: VehicleLayout, seats: tuple[str, ...] = (), rotational: bool = False
+    layout: VehicleLayout,
+    seats: tuple[str, ...] = (),
+    rotational: bool = False,
+    controlled: tuple[str, ...] = (),
 ) -> tuple[str, ...]:
     """Every term of a model: the chassis accelerations, each wheel's displacement (the
-    paper's eq. 4, extended), each corner's dynamic tyre load and suspension travel, and
-    the comfort at each seat (with ``rotational``, also the weighted pitch and roll)."""
+    paper's eq. 4, extended), each corner's dynamic tyre load and suspension travel, the
+    comfort at each seat (with ``rotational``, also the weighted pitch and roll), and the
+    actuator force at each ``controlled`` corner."""
     corners = layout.labels
     return (
         layout.dofs
@@ -89,15 +96,16 @@ def objective_terms(
         + tuple(f'travel_{c}' for c in corners)
         + tuple(f'comfort_{s}' for s in seats)
         + (tuple(f'comfort_{d}' for d in layout.dofs[1:]) if rotational else ())
+        + tuple(f'control_{c}' for c in controlled)
     )
 
 
 def term_groups(terms: tuple[str, ...]) -> dict[str, tuple[str, ...]]:
     """The terms by group name, for weights given by group (``tyre_load = 0.5`` is split
     equally among every corner's ``tyre_load_<c>``): each kind with per-corner or per-seat
-    terms (``wheel``, ``tyre_load``, ``travel``, ``comfort``)."""
+    terms (``wheel``, ``tyre_load``, ``travel``, ``comfort``, ``control``)."""
     out: dict[str, tuple[str, ...]] = {}
-    for kind in ('wheel', 'tyre_load', 'travel', 'comfort'):
+    for kind in ('wheel', 'tyre_load', 'travel', 'comfort', 'control'):
         members = tuple(t for t in terms if t.startswith(kind + '_'))
         if members:
             out[kind] = members

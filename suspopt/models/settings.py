@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import openmdao.api as om
 
-from suspopt.models.design import corner_of_design, design_id
+from suspopt.models.design import GAIN_KINDS, corner_of_design, design_id
 
 
 @functools.lru_cache(maxsize=64)
@@ -17,19 +17,20 @@ def _plan(
     names: tuple[str, ...], labels: tuple[str, ...]
 ) -> tuple[dict[str, int], dict[str, list[tuple[str, int]]]]:
     """Each output's size (``k_S``, ``c_S`` per corner always, ``k_R`` per bar, the curve
-    settings of the design per corner) and where each variable acts
+    settings and feedback gains of the design per corner) and where each variable acts
     (:func:`~suspopt.models.design.corner_of_design`): a function of the names, once."""
     nc = len(labels)
     ids = [design_id(n) for n in names]
     sizes = {'k_S': nc, 'c_S': nc, 'k_R': sum(1 for d in ids if d.kind.per_bar)}
-    sizes.update({d.kind.setting: nc for d in ids if d.kind.slot})
+    sizes.update({d.kind.setting: nc for d in ids if d.kind.slot or d.kind.symbol in GAIN_KINDS})
     return {k: v for k, v in sizes.items() if v}, corner_of_design(names, labels)
 
 
 class SuspensionSettingsComp(om.ExplicitComponent):
     """Per-corner spring rates ``k_S`` and damping ``c_S`` (and per-bar anti-roll rates
-    ``k_R``) from the design variables: each setting is the value of its variable
-    (per axle by default, left = right, or per corner).
+    ``k_R``, per-corner feedback gains ``g_sky`` ...) from the design variables: each
+    setting is the value of its variable (per axle by default, left = right, or per
+    corner); a gain is zero at a corner no variable sets.
 
     A curve parameter that is a design variable (``c_bump_low_1``) sets the per-corner
     signal ``curve_c_bump_low`` (:attr:`~suspopt.models.design.DesignKind.setting`); its

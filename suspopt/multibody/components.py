@@ -50,7 +50,18 @@ class NodewiseBlackBox(om.ExplicitComponent):
 
     Subclasses call :meth:`declare_nodewise_fd` in ``setup`` and implement
     :meth:`evaluate` (the black-box call: input arrays in, output arrays out).
+
+    With the option ``hessian_frozen`` the driver's exact Hessian
+    (:mod:`suspopt.driver.hessian`) leaves out the black box's own curvature:
+    differencing its differenced partials again gives noise; its partials then count as
+    constant around each point (a Gauss-Newton treatment of the linkage, whose response
+    is nearly linear over a suspension's travel; ``docs/codesign.md``).
     """
+
+    @property
+    def hessian_frozen(self) -> bool:
+        """The Hessian of the Lagrangian treats this component's partials as constant."""
+        return bool(self.options['hessian_frozen'])
 
     def initialize(self) -> None:
         self.options.declare('num_nodes', types=int)
@@ -75,6 +86,12 @@ class NodewiseBlackBox(om.ExplicitComponent):
             allow_none=True,
             desc="the springs' curve parameters that are inputs (default: every one; the "
             "others keep the files' values)",
+        )
+        self.options.declare(
+            'hessian_frozen',
+            types=bool,
+            default=False,
+            desc="the driver's exact Hessian leaves out this black box's curvature",
         )
 
     def declare_nodewise_fd(
@@ -203,15 +220,34 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
         self.options.declare(
             'roll', types=bool, default=False, desc='chassis mount: the frames turn with the roll'
         )
+        self.options.declare(
+            'strut_rate',
+            types=bool,
+            default=False,
+            desc="also the spring-damper's compression rate v_A (an actuator in parallel)",
+        )
+
+    @property
+    def _analysis_outputs(self) -> tuple[str, ...]:
+        return self.OUTPUTS + (('v_A',) if self.options['strut_rate'] else ())
 
     def setup(self) -> None:
         shape = (self.options['num_nodes'], self.options['corners'])
         self.add_input('z_W', shape=shape, units='m', desc='wheel travel (independent coord.)')
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
         self._pose = mount_pose_inputs(self)
+        extra = []
+        if self.options['strut_rate'] and self.options['mount'] == 'ground':
+            # the spring's chassis end follows the chassis above the corner
+            self.add_input('v_M', shape=shape, units='m/s', desc='chassis above the corner')
+            extra.append('v_M')
         self.add_output('q_W', shape=shape, units='m', desc='wheel vertical displacement')
         self.add_output('qd_W', shape=shape, units='m/s', desc='wheel vertical velocity')
-        self.declare_nodewise_fd({n: 1 for n in self.OUTPUTS}, ['z_W', 'v_W', *self._pose])
+        if self.options['strut_rate']:
+            self.add_output('v_A', shape=shape, units='m/s', desc='spring compression rate')
+        self.declare_nodewise_fd(
+            {n: 1 for n in self._analysis_outputs}, ['z_W', 'v_W', *self._pose, *extra]
+        )
 
     #: the largest position-constraint violation [m] seen by :meth:`evaluate` since it was
     #: set to a number (the time marching tracks it; None: not tracked, not computed)
@@ -219,13 +255,16 @@ class SuspensionKinematicsComp(NodewiseBlackBox):
 
     def evaluate(self, values: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         z, v = values['z_W'], values['v_W']
-        out = {n: np.empty_like(z) for n in self.OUTPUTS}
+        out = {n: np.empty_like(z) for n in self._analysis_outputs}
         for mod, cols in self.groups():
             kin = mod.kinematics(
                 z[:, cols].ravel(), v[:, cols].ravel(), pose=mount_pose(self, values, cols)
             )
             for n in self.OUTPUTS:
                 out[n][:, cols] = getattr(kin, n).reshape(z.shape[0], len(cols))
+            if self.options['strut_rate']:
+                v_M = values['v_M'][:, cols].ravel()
+                out['v_A'][:, cols] = mod.strut_rate(kin, v_M).reshape(z.shape[0], len(cols))
             if self.residual_seen is not None:
                 residual = mod.constraint_residual(kin.state, kin.pose)
                 self.residual_seen = max(self.residual_seen, residual)
@@ -321,6 +360,19 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
 
     NODE_INPUTS = ('z_W', 'v_W', 'z_M', 'v_M', 'F_T')
 
+    def initialize(self) -> None:
+        super().initialize()
+        self.options.declare(
+            'actuator',
+            types=bool,
+            default=False,
+            desc="an actuator force F_A along the spring-damper's line (node-wise input)",
+        )
+
+    @property
+    def _node_inputs(self) -> tuple[str, ...]:
+        return self.NODE_INPUTS + (('F_A',) if self.options['actuator'] else ())
+
     @property
     def _nj(self) -> int:
         return max(m.solver.nj for m in self.options['modules'])
@@ -334,6 +386,8 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         self.add_input('z_M', shape=shape, units='m', desc='chassis above the corner')
         self.add_input('v_M', shape=shape, units='m/s', desc='its vertical velocity')
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
+        if self.options['actuator']:
+            self.add_input('F_A', shape=shape, units='N', desc='actuator force, extending')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
         curve_setting_inputs(self)
@@ -347,7 +401,7 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         )
         self.declare_nodewise_fd(
             {'zdd_W': 1, 'F_S': 1, 'reactions': 2 * nj},
-            list(self.NODE_INPUTS),
+            list(self._node_inputs),
             settings=(*self._rates, *self._curves),
             held=tuple(n for n in ('k_S', 'c_S') if n not in self._rates),
         )
@@ -358,7 +412,7 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
         zdd, F_S = np.empty_like(z), np.empty_like(z)
         reactions = np.zeros(z.shape + (self._nj, 2))
         for mod, cols in self.groups():
-            flat = {k: values[k][:, cols].ravel() for k in self.NODE_INPUTS}
+            flat = {k: values[k][:, cols].ravel() for k in self._node_inputs}
             k_S = np.tile(values['k_S'][cols], nn)
             c_S = np.tile(values['c_S'][cols], nn)
             kin = mod.kinematics(flat['z_W'], flat['v_W'])
@@ -370,6 +424,7 @@ class SuspensionDynamicsComp(NodewiseBlackBox):
                 c_S,
                 flat['F_T'],
                 settings=curve_settings(mod, values, self._curves, cols, nn),
+                **({'actuator': flat['F_A']} if 'F_A' in flat else {}),
             )
             zdd[:, cols] = acc.reshape(nn, len(cols))
             F_S[:, cols] = force.reshape(nn, len(cols))
@@ -398,6 +453,12 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
             'roll', types=bool, default=False, desc='the frames turn with the roll'
         )
         self.options.declare('mount', default='chassis', values=('chassis',))
+        self.options.declare(
+            'actuator',
+            types=bool,
+            default=False,
+            desc="an actuator force F_A along the spring-damper's line (node-wise input)",
+        )
 
     @property
     def width(self) -> int:
@@ -414,6 +475,9 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.add_input('v_W', shape=shape, units='m/s', desc='wheel travel rate')
         pose = mount_pose_inputs(self)
         self.add_input('F_T', shape=shape, units='N', desc='tyre force (eq. 13)')
+        actuator = ['F_A'] if self.options['actuator'] else []
+        if actuator:
+            self.add_input('F_A', shape=shape, units='N', desc='actuator force, extending')
         self.add_input('k_S', shape=(nc,), units='N/m', desc='spring rate per corner')
         self.add_input('c_S', shape=(nc,), units='N*s/m', desc='damping per corner')
         curve_setting_inputs(self)
@@ -426,7 +490,7 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
         self.add_output('F_S', shape=shape, units='N', desc='spring force on its chassis end')
         self.declare_nodewise_fd(
             {'response': self._blocks * self.width, 'F_S': 1},
-            ['z_W', 'v_W', *pose, 'F_T'],
+            ['z_W', 'v_W', *pose, 'F_T', *actuator],
             settings=(*self._rates, *self._curves),
             held=tuple(n for n in ('k_S', 'c_S') if n not in self._rates),
         )
@@ -449,6 +513,9 @@ class ChassisMountDynamicsComp(NodewiseBlackBox):
                 values['F_T'][:, cols].ravel(),
                 rotation=self.options['roll'],
                 settings=curve_settings(mod, values, self._curves, cols, nn),
+                **(
+                    {'actuator': values['F_A'][:, cols].ravel()} if self.options['actuator'] else {}
+                ),
             )
             resp[:, cols, :, : R.shape[2]] = R.reshape(nn, len(cols), self._blocks, -1)
             F_S[:, cols] = force.reshape(nn, len(cols))

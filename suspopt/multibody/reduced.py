@@ -64,8 +64,13 @@ from suspopt.multibody.reduced_terms import (
     P_MMOV,
     P_PRELOAD,
     Q0,
+    S_DLENGTH,
+    S_HC,
+    S_MASS,
     V_BODY,
     V_DBODY,
+    V_DIRECTION,
+    V_DP,
     V_DWHEEL,
     V_WHEEL,
     VECTORS,
@@ -532,10 +537,12 @@ class ReducedSuspensionModule:
         c_S: np.ndarray,
         F_T: np.ndarray,
         settings: dict[str, np.ndarray] | None = None,
+        actuator: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, None]:
         """:meth:`SuspensionModule.dynamics` at a :meth:`kinematics` state: wheel-travel
         acceleration (N,) and ``F_S`` (N,); no joint reactions (None). Its spring is linear:
-        it has no curve ``settings``."""
+        it has no curve ``settings``. An ``actuator`` force along the spring's line enters
+        linearly (:meth:`_actuated`)."""
         _no_curves(settings)
         if self.mount != 'ground':
             raise ValueError(
@@ -548,8 +555,11 @@ class ReducedSuspensionModule:
             N = st.q.shape[0]
             zM, vM, k, c, F = (_vector(a, N) for a in (z_M, v_M, k_S, c_S, F_T))
             rows = st.inside
+            act = None if actuator is None else _vector(actuator, N)
             if rows is None and self._kernels is None:
                 sdd, F_S = ground_terms(st.values.T, st.sd, zM, vM, k, c, F, self.par)
+                if act is not None:
+                    self._actuated(st.values, act, F_S, sdd)
                 return sdd, F_S, None
             sdd, F_S = np.empty(N), np.empty(N)
             every = np.arange(N) if rows is None else rows
@@ -568,16 +578,83 @@ class ReducedSuspensionModule:
                     F[every],
                     self.par,
                 )
+            if act is not None and every.size:
+                d_sdd, d_F = np.zeros(every.size), np.zeros(every.size)
+                self._actuated(st.values[every], act[every], d_F, d_sdd)
+                sdd[every] += d_sdd
+                F_S[every] += d_F
             if st.fallback is not None:
                 out = np.ones(N, dtype=bool)
                 out[every] = False
                 a, f, _ = self.full.dynamics(
-                    st.fallback.state, zM[out], vM[out], k[out], c[out], F[out]
+                    st.fallback.state,
+                    zM[out],
+                    vM[out],
+                    k[out],
+                    c[out],
+                    F[out],
+                    actuator=None if act is None else act[out],
                 )
                 sdd[out], F_S[out] = a, f
             return sdd, F_S, None
         finally:
             self.time_s += time.perf_counter() - t0
+
+    @staticmethod
+    def _actuated(
+        Y: np.ndarray,
+        actuator: np.ndarray,
+        F_S: np.ndarray,
+        sdd: np.ndarray | None = None,
+        psi: np.ndarray | None = None,
+        R: np.ndarray | None = None,
+    ) -> None:
+        """Add an actuator force ``u`` along the spring's line (pushing its ends apart) to
+        the answers at states ``Y``: the spring's tension is lower by ``u``, and both
+        answers are affine in the tension (:func:`ground_terms`, :func:`chassis_terms`):
+        ``Δs̈ = u ℓ' / m`` and ``ΔF_S = u e_z`` (ground mount, ``sdd``, ``F_S`` in place);
+        the chassis mount's zero-acceleration response block ``R[:, 0]`` by the same
+        ``Δs̈`` through the independent body's and the frame's terms (``psi``: the
+        frame's turn)."""
+        d = actuator * Y[:, S_DLENGTH] / Y[:, S_MASS]
+        if R is None:
+            assert sdd is not None
+            sdd += d
+            F_S += actuator * Y[:, 2 * V_DIRECTION + 1]
+            return
+        assert psi is not None
+        cp, sp = np.cos(psi), np.sin(psi)
+
+        def turned(v: int) -> tuple[np.ndarray, np.ndarray]:
+            x, z = Y[:, 2 * v], Y[:, 2 * v + 1]
+            return cp * x - sp * z, sp * x + cp * z
+
+        Xdp, Zdp = turned(V_DP)
+        R[:, 0, 0] += turned(V_DBODY)[1] * d
+        R[:, 0, 1] -= Zdp * d
+        R[:, 0, 2] -= Y[:, S_HC] * d
+        R[:, 0, 3] -= Xdp * d
+        F_S += actuator * turned(V_DIRECTION)[1]
+
+    def strut_rate(self, kin: ModuleKinematics, v_M: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`SuspensionModule.strut_rate` at a :meth:`kinematics` state: ``-ℓ' ṡ``
+        (less ``e_z v_M`` on the ground mount)."""
+        st = self._own(kin.state)
+        N = st.sd.shape[0]
+        ground = self.mount == 'ground'
+        vM = _vector(np.zeros(N) if v_M is None else v_M, N)
+        every = np.arange(N) if st.inside is None else st.inside
+        out = np.empty(N)
+        Y = st.values[every]
+        rate = -Y[:, S_DLENGTH] * st.sd[every]
+        if ground:
+            rate = rate - Y[:, 2 * V_DIRECTION + 1] * vM[every]
+        out[every] = rate
+        if st.fallback is not None:
+            rest = np.ones(N, dtype=bool)
+            rest[every] = False
+            out[rest] = self.full.strut_rate(st.fallback, vM[rest] if ground else None)
+        return out
 
     @staticmethod
     def _own(state: MultibodyState) -> ReducedState:
@@ -594,10 +671,12 @@ class ReducedSuspensionModule:
         rotation: bool = False,
         acceleration: np.ndarray | None = None,
         settings: dict[str, np.ndarray] | None = None,
+        actuator: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`SuspensionModule.mount_response` at a :meth:`kinematics` state, the
         :data:`~suspopt.multibody.suspension.RESPONSE` entries only: ``R`` (N, B, 4) and
-        ``F_S`` (N,)."""
+        ``F_S`` (N,); an ``actuator`` force along the spring's line as in
+        :meth:`dynamics`."""
         _no_curves(settings)
         if self.mount != 'chassis':
             raise ValueError(
@@ -637,6 +716,11 @@ class ReducedSuspensionModule:
                     Fi,
                 )
                 R[rows], F_S[rows] = Ri, Fi
+            act = None if actuator is None else _vector(actuator, N)
+            if act is not None and every.size:
+                Ri, Fi = R[every], F_S[every]
+                self._actuated(st.values[every], act[every], Fi, psi=pose[2][every], R=Ri)
+                R[every], F_S[every] = Ri, Fi
             if st.fallback is not None:
                 out = np.ones(N, dtype=bool)
                 out[every] = False
@@ -647,6 +731,7 @@ class ReducedSuspensionModule:
                     F[out],
                     rotation=rotation,
                     acceleration=None if acc is None else acc[out],
+                    actuator=None if act is None else act[out],
                 )
                 R[out], F_S[out] = Rf[:, :, : len(RESPONSE)], Ff
             return R, F_S

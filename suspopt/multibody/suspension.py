@@ -393,6 +393,32 @@ class SuspensionModule:
                 settings.setdefault(name, val)
         return settings
 
+    def strut_rate(self, kin: ModuleKinematics, v_M: np.ndarray | None = None) -> np.ndarray:
+        """The spring-damper's compression rate (N,) at states of :meth:`kinematics`, bump
+        +: ``-(ℓ̇ + e_z v_M)`` on the ground mount (the chassis end follows ``v_M`` along
+        the spring's line, as in :meth:`dynamics`), ``-ℓ̇`` on the chassis mount (both ends
+        move with the linkage); the rate across an actuator or damper in parallel with it
+        (``docs/codesign.md``). For a vertical spring at the wheel it is ``v_W - v_M``."""
+        t0 = time.perf_counter()
+        s, state = self.solver, kin.state
+        try:
+            qe, qde = s.extend(state.q), s.extend(state.qd)
+            k = self._spring_group[1]
+            grp = self._spring_elements()
+            geo = grp.geometry(qe)
+            _, grad = grp.measure(qe, geo)
+            rate = -grp.rate(grad, qde)[:, k]
+            if self.mount == 'ground':
+                e_z = self._spring_directions(qe, geo)[:, 1 - self.chassis_end, 1]
+                rate = rate - e_z * np.asarray(v_M, dtype=float)
+        finally:
+            self.time_s += time.perf_counter() - t0
+        return rate
+
+    def _preload(self) -> float:
+        """The spring's own preload (its file's), the tension an actuator adds to."""
+        return float(getattr(self.mechanism.force(self.spring_name), 'preload', 0.0))
+
     def axis_vertical(self, state: MultibodyState) -> np.ndarray:
         """``e_z``: vertical component of the unit vector from the spring's linkage end to
         its chassis end, (N,)."""
@@ -427,13 +453,17 @@ class SuspensionModule:
         c_S: np.ndarray | None,
         F_T: np.ndarray,
         settings: dict[str, np.ndarray] | None = None,
+        actuator: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Augmented-form dynamics (eq. 11) under the suspension spring (rate ``k_S``,
         damping ``c_S``, chassis mount at ``z_M``, ``v_M``) and ``+F_T`` on the contact
         patch: wheel-travel acceleration (N,), the spring's vertical force on the chassis
         ``F_S`` (N,) and the joint reactions (N, nj, 2). A spring with curves takes its
         parameters from ``settings`` (and ``k_S``, ``c_S``: :meth:`curve_values`), the
-        mount's motion as the length offsets ``e_z z_M``, ``e_z v_M``."""
+        mount's motion as the length offsets ``e_z z_M``, ``e_z v_M``. ``actuator``: a
+        force (N,) along the spring's line in parallel with it, pushing its ends apart
+        (``docs/codesign.md``): the spring's tension less that force (``F_S`` includes
+        it)."""
         if self.mount != 'ground':
             raise ValueError(
                 f"{self.mechanism.name}: dynamics() is the ground mount's "
@@ -460,6 +490,9 @@ class SuspensionModule:
                 }
             else:
                 params = {self.spring_name: self._spring_values(e_z, z_M, v_M, k_S, c_S, settings)}
+            if actuator is not None:
+                own = params[self.spring_name].get('preload', self._preload())
+                params[self.spring_name]['preload'] = own - np.asarray(actuator, dtype=float)
             values = s.force_values(N, loads, params)
             Q, parts = s.applied_forces(q, qe, qde, values, geo)
             known = state if isinstance(state, AnalysedState) else None
@@ -490,10 +523,12 @@ class SuspensionModule:
         rotation: bool = False,
         acceleration: np.ndarray | None = None,
         settings: dict[str, np.ndarray] | None = None,
+        actuator: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Chassis mount: what the linkage applies on the chassis at N states analysed by
         :meth:`kinematics`, under the spring (``k_S``, ``c_S``) and ``+F_T`` on the contact
-        patch.
+        patch (and an ``actuator`` force along the spring's line, as in
+        :meth:`dynamics`).
 
         Returns ``R`` (N, B, n_r), each row the entries :data:`RESPONSE` (wheel-travel
         acceleration, the force ``F_z``, the moment ``M_P`` about P and the force ``F_x`` of
@@ -514,6 +549,10 @@ class SuspensionModule:
             loads = np.zeros((N, len(s.load_names)))
             loads[:, self.tyre_load] = F_T
             params = {self.spring_name: self._spring_values(None, None, None, k_S, c_S, settings)}
+            if actuator is not None:
+                params[self.spring_name]['preload'] = self._preload() - np.asarray(
+                    actuator, dtype=float
+                )
             qe, qde = s.extend(state.q), s.extend(state.qd)
             gi = self._spring_group[0]
             geo = {gi: self._spring_elements().geometry(qe)}

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from suspopt.records.codec import Node, Record
+from suspopt.records.control import ControlHistory
 from suspopt.records.verification import Check, Verification
 
 #: a constraint violation (IPOPT's inf_pr, scaled) below which an iterate counts as feasible
@@ -121,6 +122,9 @@ class SolveRecord(Record):
     max_constraint_residual_m: float | None = None
     #: the study description (plain data) of a run's own file, ``result.json``
     config: dict[str, Any] | None = field(default=None, metadata={'omit_none': True})
+    #: the open-loop controls as solved, one per scenario (``docs/codesign.md``; none for
+    #: a passive car or a feedback law): the time marching verifies with them
+    controls: tuple[ControlHistory, ...] = ()
 
     # ------------------------------------------------------------------ views
     @property

@@ -396,16 +396,25 @@ class CSVRoad(RoadProfile):
     """A measured road: CSV of distance [m] and height [m], one point per row.
 
     A header row is allowed. The profile is a cubic spline through the points
-    (``scipy.interpolate.CubicSpline``, not-a-knot), so height and slope are continuous.
-    Before the first point (the rear wheel at t = 0 sits a wheelbase behind the front one)
-    the road continues flat at the first height. The data must cover the whole drive.
+    (``scipy.interpolate.CubicSpline(bc_type='not-a-knot')``, MATLAB's ``spline``), so
+    height, slope and curvature are continuous. Before the first point (the rear wheel at
+    t = 0 sits a wheelbase behind the front one) the road continues flat at the first
+    height. The data must cover the whole drive.
+
+    ``relative_to_start``: the heights are taken relative to the profile's height at
+    ``s = 0``, where the front wheel starts: the zero initial state (every mass at rest
+    at height 0, the tyre undeflected) is then the vehicle standing on the road. A
+    measured profile's datum is arbitrary; without this its height at ``s = 0`` acts as
+    a step under the wheel at ``t = 0``. A rear wheel, before the first point, sees the
+    same flat continuation, so it starts on the road too.
     """
 
     kind: ClassVar[str] = 'csv'
     file: str = ''
+    relative_to_start: bool = False
 
     def _data(self) -> tuple[np.ndarray, np.ndarray]:
-        return read_road_csv(self.file)
+        return _read_road_csv_once(self.file)
 
     @property
     def _spline(self):
@@ -414,7 +423,9 @@ class CSVRoad(RoadProfile):
             from scipy.interpolate import CubicSpline
 
             s, h = self._data()
-            spline = CubicSpline(s, h)
+            if self.relative_to_start:
+                h = h - CubicSpline(s, h, bc_type='not-a-knot')(max(0.0, s[0]))
+            spline = CubicSpline(s, h, bc_type='not-a-knot')
             object.__setattr__(self, '_spline_cache', spline)
         return spline
 
@@ -502,6 +513,25 @@ def _number(cell: str) -> float | None:
         return float(cell)
     except ValueError:
         return None
+
+
+def _read_road_csv_once(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`read_road_csv`, read once per file version (by its path, size and time of
+    modification): a study builds its road many times (checks, models, time marching)."""
+    p = Path(path)
+    try:
+        st = p.stat()
+    except OSError:
+        return read_road_csv(p)  # the reader names the problem
+    return _cached_road_csv(str(p.resolve()), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_road_csv(path: str, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndarray]:
+    s, h = read_road_csv(path)
+    s.flags.writeable = False
+    h.flags.writeable = False
+    return s, h
 
 
 def read_road_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:

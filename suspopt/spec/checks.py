@@ -17,6 +17,8 @@ from suspopt.road import PROFILES, TWO_TRACKS, CSVRoad, make_road, profile_field
 from suspopt.road.profiles import MAX_FEATURE_HEIGHT
 from suspopt.spec.schema import (
     AGGREGATES,
+    CONTROL_KINDS,
+    CONTROL_LAWS,
     HESSIANS,
     HORIZON_RANGE,
     MAX_NLP_VARIABLES,
@@ -24,6 +26,7 @@ from suspopt.spec.schema import (
     MOUNTS,
     NORMALIZATIONS,
     SPEED_RANGE,
+    ControlConfig,
     StudyConfig,
     VehicleConfig,
     design_limit,
@@ -66,6 +69,7 @@ def semantic_checks(cfg: StudyConfig, sized: bool = True) -> list[str]:
     errs.extend(_objective_checks(cfg))
     errs.extend(_comfort_checks(cfg))
     errs.extend(_constraint_checks(cfg))
+    errs.extend(_control_checks(cfg))
     errs.extend(_numerics_checks(cfg))
     n_tracks = cfg.layout().n_tracks if layout_ok(cfg.vehicle) else 1
     errs.extend(_road_checks(cfg.road, 'road', cfg.maneuver.speed * cfg.maneuver.horizon, n_tracks))
@@ -138,9 +142,14 @@ def _design_checks(cfg: StudyConfig) -> list[str]:
                     f'{x:g} {DESIGN_UNITS[design_kind(name)]} is '
                     f'implausible for a road vehicle: at most {limit:g} (a typo?)',
                 )
-        if design_kind(name) == 'k_R':
+        kind = design_kind(name)
+        if kind in ('g_tr', 'g_rt'):  # a feedback gain on travel or its rate: either sign
+            if max(abs(dv.lower), abs(dv.upper)) > limit:
+                errs.add(f'{key}.lower', f'magnitudes up to {limit:g} are plausible (a typo?)')
+        elif kind in ('k_R', 'g_sky', 'g_gnd'):
             if dv.lower < 0.0:
-                errs.add(f'{key}.lower', f'must be >= 0 (a bar rate), got {dv.lower:g}')
+                what = 'a bar rate' if kind == 'k_R' else 'a skyhook or groundhook gain'
+                errs.add(f'{key}.lower', f'must be >= 0 ({what}), got {dv.lower:g}')
         elif design_id(name).kind.slot:
             pass  # a curve parameter: the hardware's own checks (_hardware_checks)
         elif dv.lower <= 0.0:
@@ -318,6 +327,72 @@ def _constraint_checks(cfg: StudyConfig) -> list[str]:
         errs.extend(_band(rf.pitch, 'constraints.ride_frequency.pitch', 0.0, 20.0, ' Hz'))
         if rf.pitch and v.model == 'quarter_car':
             errs.add('constraints.ride_frequency.pitch', 'a quarter car does not pitch')
+    return list(errs)
+
+
+def _control_checks(cfg: StudyConfig) -> list[str]:
+    """The controlled suspension (``docs/codesign.md``): a known kind and law, corners of
+    this car, bounds that make sense for the kind."""
+    errs = Problems()
+    c = cfg.control
+    if c.kind not in CONTROL_KINDS:
+        errs.add(
+            'control.kind',
+            f'must be one of {", ".join(CONTROL_KINDS)}, got {c.kind!r}'
+            + did_you_mean(c.kind, CONTROL_KINDS),
+        )
+        return list(errs)
+    if c.law not in CONTROL_LAWS:
+        errs.add(
+            'control.law',
+            f'must be one of {", ".join(CONTROL_LAWS)}, got {c.law!r}'
+            + did_you_mean(c.law, CONTROL_LAWS),
+        )
+    given = [
+        k
+        for k in ('corners', 'force_max', 'power_max', 'c_min', 'c_max', 'force_scale')
+        if getattr(c, k) != getattr(ControlConfig(), k)
+    ]
+    if not c.enabled:
+        if given:
+            errs.add(
+                f'control.{given[0]}',
+                "only with a control (control.kind = 'active' or 'semi_active')",
+            )
+        return list(errs)
+    if layout_ok(cfg.vehicle):
+        labels = cfg.layout().labels
+        unknown = [x for x in c.corners if x not in labels]
+        if unknown:
+            errs.add(
+                'control.corners',
+                f'{", ".join(repr(x) for x in unknown)}: no such corner on a '
+                f'{cfg.vehicle.model.replace("_", " ")} (its corners: {", ".join(labels)})',
+            )
+        if len(set(c.corners)) != len(c.corners):
+            errs.add('control.corners', f'a corner is named twice: {list(c.corners)}')
+    if c.kind == 'semi_active':
+        if not c.c_max > 0.0:
+            errs.add('control.c_max', f'a semi-active damper needs c_max > 0, got {c.c_max:g}')
+        elif c.c_min > c.c_max:
+            errs.add(
+                'control.c_min', f'{c.c_min:g} N s/m is above control.c_max = {c.c_max:g} N s/m'
+            )
+        elif c.c_min == c.c_max:
+            errs.add('control.c_min', f'equals control.c_max ({c.c_max:g}): nothing to control')
+        if c.force_scale:
+            errs.add('control.force_scale', "only for an active force (control.kind = 'active')")
+    else:  # active
+        for k in ('c_min', 'c_max'):
+            if getattr(c, k):
+                errs.add(f'control.{k}', "only for a semi-active damper (kind = 'semi_active')")
+        if c.power_max and not c.force_max:
+            errs.add(
+                'control.power_max',
+                'an active force needs control.force_max too: the power bound |u v| <= '
+                'power_max leaves the force unbounded where the relative velocity vanishes '
+                '(at rest, at every reversal)',
+            )
     return list(errs)
 
 

@@ -17,13 +17,15 @@ from typing import Any
 import suspopt.spec.hardware as hardware
 from suspopt.errors import ConfigError
 from suspopt.inputs import read_toml
-from suspopt.models.design import design_id, design_kind
+from suspopt.models.design import GAIN_KINDS, design_id, design_kind
 from suspopt.models.metrics import term_groups
 from suspopt.road import TWO_TRACKS
 from suspopt.spec.checks import canonical_road, layout_ok, semantic_checks
 from suspopt.spec.schema import (
+    CONTROL_KINDS,
     DESIGN_DEFAULTS,
     MODELS,
+    ControlConfig,
     DesignConfig,
     DesignVariable,
     StudyConfig,
@@ -67,9 +69,11 @@ def _model_problems(model: str, data: dict[str, Any]) -> list[str]:
     if model != 'quarter_car' or not isinstance(vehicle, dict):
         return []
     out = []
-    if 'rear' in vehicle:
+    # a written quarter car (StudyConfig.to_dict) carries the defaults of both: accepted
+    written = StudyConfig().to_dict()['vehicle']
+    if 'rear' in vehicle and vehicle['rear'] != written['rear']:
         out.append('vehicle.rear: a quarter car has one corner (vehicle.front)')
-    if 'chassis_pitch_inertia' in vehicle:
+    if vehicle.get('chassis_pitch_inertia', 0.0) != 0.0:
         out.append('vehicle.chassis_pitch_inertia: a quarter car does not pitch')
     return out
 
@@ -102,12 +106,14 @@ def _parse_design(
     errs: Problems,
     defaults: dict[str, Any] | None = None,
     constraints: Any = None,
+    control: ControlConfig | None = None,
 ) -> DesignConfig:
     """The design table; a variable not given takes the default car's entry
     (``defaults``) or the kind's default (:data:`DESIGN_DEFAULTS`). A curve parameter's
     variable (``c_bump_low_1``, :mod:`suspopt.spec.hardware`) exists when named; its
     initial value defaults to the hardware's, its bounds to
-    :func:`~suspopt.spec.hardware.default_bounds`."""
+    :func:`~suspopt.spec.hardware.default_bounds`. A feedback ``control``'s gains are
+    design variables too."""
     defaults = defaults or {}
     if not isinstance(data, dict):
         errs.add('design', f'must be a table, got {data!r}')
@@ -119,11 +125,12 @@ def _parse_design(
     if per_corner and vehicle.model != 'full_car':
         errs.add('design.per_corner', 'only the full car has left and right corners')
         per_corner = False
-    base = design_names(vehicle, per_corner)
+    base = design_names(vehicle, per_corner, control)
     curves = hardware.curve_variable_names(vehicle, per_corner, data)
-    names = tuple(n for n in base if design_kind(n) != 'k_R') + curves
-    names += tuple(n for n in base if design_kind(n) == 'k_R')
-    axle_names = design_names(vehicle, False) if per_corner else ()
+    last = ('k_R', *GAIN_KINDS)  # the bars' rates, then the feedback gains, after the curves
+    names = tuple(n for n in base if design_kind(n) not in last) + curves
+    names += tuple(n for k in last for n in base if design_kind(n) == k)
+    axle_names = design_names(vehicle, False, control) if per_corner else ()
     allowed = (
         set(names) | set(axle_names) | set(hardware.allowed_curve_variables(vehicle, per_corner))
     )
@@ -305,6 +312,7 @@ def config_from_dict(data: dict[str, Any], base_dir: str | Path | None = None) -
         errs,
         defaults['design'],
         cfg.constraints,
+        cfg.control if cfg.control.kind in CONTROL_KINDS else None,
     )
     terms = cfg.terms() if layout_ok(cfg.vehicle) else ()
     weights = (

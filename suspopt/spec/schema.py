@@ -46,7 +46,15 @@ PAPER_SCALES = {'heave': 0.1, 'pitch': 0.01, 'wheel_1': 1.0, 'wheel_2': 1.0}
 MAX_NLP_VARIABLES = 150_000
 #: Design variables' largest plausible values by kind (a guard against a unit typo); a
 #: curve parameter's by its units (:func:`design_limit`)
-DESIGN_LIMITS = {'k_S': 1e7, 'c_S': 1e6, 'k_R': 1e7}
+DESIGN_LIMITS = {
+    'k_S': 1e7,
+    'c_S': 1e6,
+    'k_R': 1e7,
+    'g_sky': 1e6,
+    'g_gnd': 1e6,
+    'g_tr': 1e7,
+    'g_rt': 1e6,
+}
 #: the largest plausible value of a curve parameter by its units: damping, knee
 #: velocity, gap
 CURVE_LIMITS = {'N*s/m': 1e6, 'm/s': 20.0, 'm': 1.0}
@@ -58,6 +66,13 @@ def design_limit(name: str) -> float:
     if kind.symbol in DESIGN_LIMITS:
         return DESIGN_LIMITS[kind.symbol]
     return CURVE_LIMITS.get(kind.units, math.inf)  # a polynomial's coefficient: any
+
+
+#: the controlled suspensions (``[control] kind``) and their control laws (``law``)
+CONTROL_KINDS = ('none', 'active', 'semi_active')
+CONTROL_LAWS = ('open_loop', 'feedback')
+#: the feedback gains of each kind of controlled suspension (``docs/codesign.md``)
+FEEDBACK_GAINS = {'semi_active': ('g_sky', 'g_gnd'), 'active': ('g_sky', 'g_gnd', 'g_tr', 'g_rt')}
 
 
 #: maneuver limits (also for scenarios)
@@ -211,6 +226,87 @@ class ManeuverConfig:
     )
 
 
+# ---------------------------------------------------------------------------- control
+@dataclass(frozen=True)
+class ControlConfig:
+    """An active or semi-active suspension at some corners, optimized with the passive
+    hardware (``docs/codesign.md``). ``kind``: ``none``, ``active`` (an actuator force
+    ``u`` between body and wheel, in parallel with the spring-damper) or ``semi_active`` (a
+    damper of coefficient ``c(t)`` in ``[c_min, c_max]`` in parallel with the passive
+    damper: it can only dissipate). ``law``: ``open_loop`` (the control's time history is
+    optimized: a Dymos control, the bound of any controller with full preview of the road)
+    or ``feedback`` (a state-feedback law whose gains are design variables)."""
+
+    kind: str = field(default='none', metadata={'doc': 'none, active or semi_active'})
+    law: str = field(default='open_loop', metadata={'doc': 'open_loop or feedback'})
+    corners: tuple[str, ...] = field(
+        default=(), metadata={'doc': 'the controlled corners (labels; default: every corner)'}
+    )
+    force_max: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1e6, 'N', 'an actuator force', doc='|u| bound [N] (0: none)'),
+    )
+    power_max: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1e7, 'W', "an actuator's power", doc='|u v| bound [W] (0: none)'),
+    )
+    c_min: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1e6, 'N s/m', 'a damping', doc='semi_active: c(t) lower bound'),
+    )
+    c_max: float = field(
+        default=0.0,
+        metadata=_plausible(0.0, 1e6, 'N s/m', 'a damping', doc='semi_active: c(t) upper bound'),
+    )
+    force_scale: float = field(
+        default=0.0,
+        metadata=_plausible(
+            0.0,
+            1e6,
+            'N',
+            'an actuator force',
+            doc="the NLP's scale of an active force [N] (0: force_max, else a tenth of the "
+            "corner's static load)",
+        ),
+    )
+    smoothing: float = field(
+        default=0.02,
+        metadata=_plausible(
+            1e-4,
+            0.5,
+            '',
+            'a smoothing fraction',
+            doc='semi_active feedback: width of the smooth clip to [c_min, c_max], a '
+            'fraction of c_max - c_min',
+        ),
+    )
+    velocity_floor: float = field(
+        default=0.005,
+        metadata=_plausible(
+            1e-6,
+            1.0,
+            'm/s',
+            'a relative velocity',
+            doc='semi_active feedback: relative velocity [m/s] below which the demanded '
+            'force over the velocity is regularized',
+        ),
+    )
+
+    @property
+    def enabled(self) -> bool:
+        return self.kind != 'none'
+
+    def controlled(self, labels: tuple[str, ...]) -> tuple[str, ...]:
+        """The controlled corners' labels among a car's ``labels`` (in the car's order)."""
+        if not self.enabled:
+            return ()
+        return tuple(c for c in labels if not self.corners or c in self.corners)
+
+    def gains(self) -> tuple[str, ...]:
+        """The feedback gains' kinds (none for an open-loop control)."""
+        return FEEDBACK_GAINS.get(self.kind, ()) if self.law == 'feedback' else ()
+
+
 # ---------------------------------------------------------------------------- design
 @dataclass(frozen=True)
 class DesignVariable:
@@ -223,19 +319,27 @@ class DesignVariable:
 
 
 #: default (initial, lower, upper) by kind: spring rate [N/m], damping [N s/m], anti-roll
-#: bar rate [N m/rad] (paper Table 3 for the first two)
+#: bar rate [N m/rad] (paper Table 3 for the first two), and the feedback gains: skyhook,
+#: groundhook [N s/m], travel [N/m], travel rate [N s/m] (``docs/codesign.md``)
 DESIGN_DEFAULTS = {
     'k_S': (30000.0, 10000.0, 50000.0),
     'c_S': (3000.0, 1000.0, 5000.0),
     'k_R': (20000.0, 0.0, 100000.0),
+    'g_sky': (1000.0, 0.0, 20000.0),
+    'g_gnd': (100.0, 0.0, 20000.0),
+    'g_tr': (0.0, -50000.0, 50000.0),
+    'g_rt': (0.0, -5000.0, 5000.0),
 }
 
 
-def design_names(vehicle: VehicleConfig, per_corner: bool = False) -> tuple[str, ...]:
+def design_names(
+    vehicle: VehicleConfig, per_corner: bool = False, control: ControlConfig | None = None
+) -> tuple[str, ...]:
     """The design variables of a car: spring rate and damping per axle (``k_S1``, ``c_S2``)
     or per corner (``k_S1L`` ...), then each anti-roll bar's rate (``k_R1``). An axle
     whose spring is a table has no ``k_S``, one with a damper curve no ``c_S`` (its
-    curves' parameters may be variables instead: :mod:`suspopt.spec.hardware`)."""
+    curves' parameters may be variables instead: :mod:`suspopt.spec.hardware`); then a
+    feedback ``control``'s gains on each axle (or corner) it controls (``g_sky1`` ...)."""
     groups = (
         vehicle.layout().labels
         if per_corner and vehicle.model == 'full_car'
@@ -251,6 +355,10 @@ def design_names(vehicle: VehicleConfig, per_corner: bool = False) -> tuple[str,
     names += [f'c_S{g}' for g in groups if axle(g).has_linear_damper]
     if vehicle.model == 'full_car':
         names += [f'k_R{i + 1}' for i, ax in enumerate(vehicle.axles) if ax.anti_roll_bar]
+    if control is not None and control.gains() and vehicle.model in MODELS:
+        controlled = control.controlled(vehicle.layout().labels)
+        mine = [g for g in groups if any(c.startswith(g) for c in controlled)]
+        names += [f'{k}{g}' for k in control.gains() for g in mine]
     return tuple(names)
 
 
@@ -285,11 +393,14 @@ class DesignConfig:
 
 
 # ---------------------------------------------------------------------------- objective
-def objective_terms(layout: VehicleLayout, seats: tuple[str, ...] = ()) -> tuple[str, ...]:
+def objective_terms(
+    layout: VehicleLayout, seats: tuple[str, ...] = (), controlled: tuple[str, ...] = ()
+) -> tuple[str, ...]:
     """The objective's terms (:func:`suspopt.models.metrics.objective_terms`): the
     chassis accelerations, each wheel's displacement (the paper's eq. 4), each corner's
-    dynamic tyre load and suspension travel, and the comfort at each seat."""
-    return metric_terms(layout, seats)
+    dynamic tyre load and suspension travel, the comfort at each seat and the actuator
+    force at each controlled corner."""
+    return metric_terms(layout, seats, controlled=controlled)
 
 
 def default_weights(layout: VehicleLayout) -> dict[str, float]:
@@ -512,13 +623,20 @@ class StudyConfig:
     multibody: MultibodyConfig = field(default_factory=MultibodyConfig)
     comfort: ComfortConfig = field(default_factory=ComfortConfig)
     constraints: ConstraintsConfig = field(default_factory=ConstraintsConfig)
+    control: ControlConfig = field(default_factory=ControlConfig)
     scenario: tuple[ScenarioConfig, ...] = ()
 
     def layout(self) -> VehicleLayout:
         return self.vehicle.layout()
 
+    def controlled(self) -> tuple[str, ...]:
+        """The labels of the corners with an actuator (``[control]``)."""
+        return self.control.controlled(self.layout().labels)
+
     def terms(self) -> tuple[str, ...]:
-        return objective_terms(self.layout(), tuple(s.name for s in self.comfort.seats))
+        return objective_terms(
+            self.layout(), tuple(s.name for s in self.comfort.seats), self.controlled()
+        )
 
     def design_names(self) -> tuple[str, ...]:
         return self.design.names

@@ -92,6 +92,11 @@ def parse_value(tp: Any, val: Any, key: str, errs: Problems, meta: dict) -> Any:
                 errs.add(key, f'must be an array of tables ([[{key}]]), got {val!r}')
                 return ()
             return tuple(parse_dataclass(item, v, f'{key}[{i}]', errs) for i, v in enumerate(val))
+        if item is str:
+            if not isinstance(val, (list, tuple)) or not all(isinstance(v, str) for v in val):
+                errs.add(key, f'must be a list of strings, got {val!r}')
+                return ()
+            return tuple(val)
         if not isinstance(val, (list, tuple)) or not all(is_number(v) for v in val):
             errs.add(key, f'must be a list of numbers, got {val!r}')
             return ()

@@ -90,14 +90,23 @@ def initial_guess(
     solves its collocation equations whatever the start, and simulates for the nonlinear
     mixed model.
     """
-    from suspopt.verification.timemarching import simulate
+    from suspopt.verification.timemarching import simulate, starting_controls
 
     mode = config.transcription.initial_guess
     if mode == 'zero' or (mode == 'auto' and fidelity == 'low'):
         return [None] * len(config.scenarios())
-    # a starting point only: the collocation error (~1e-4) is far above these tolerances
+    # a starting point only: the collocation error (~1e-4) is far above these tolerances;
+    # an open-loop control at its starting value, as the collocation starts it
     return [
-        simulate(config, 'low', design, scenario=i, rtol=1e-3, atol=1e-6)
+        simulate(
+            config,
+            'low',
+            design,
+            scenario=i,
+            rtol=1e-3,
+            atol=1e-6,
+            controls=starting_controls(config, i),
+        )
         for i in range(len(config.scenarios()))
     ]
 
@@ -339,19 +348,3 @@ def time_marching_record(
         if fidelity == 'mixed'
         else None,
     )
-
-
-def quiet_libraries() -> None:
-    """OpenMDAO/Dymos warnings about their own internals are noise for a user, in a
-    terminal or in a worker's log."""
-    import warnings
-
-    for module in ('openmdao', 'dymos'):
-        warnings.filterwarnings('ignore', module=module)
-    warnings.filterwarnings('ignore', category=DeprecationWarning)
-    try:
-        from openmdao.utils.om_warnings import OpenMDAOWarning
-
-        warnings.filterwarnings('ignore', category=OpenMDAOWarning)
-    except ImportError:  # pragma: no cover
-        pass

@@ -70,7 +70,7 @@ def dask_setup(worker: Any) -> None:
         pass
     from threadpoolctl import threadpool_limits
 
-    from suspopt.studies.run import quiet_libraries
+    from suspopt.quiet import quiet_libraries
 
     threadpool_limits(limits=1)
     quiet_libraries()

@@ -349,7 +349,7 @@ def run_task(payload: TaskPayload) -> TaskRecord:
     traceback); a full or unwritable disk gives an ``environment`` record."""
     t0, cpu0 = time.time(), time.process_time()
     worker = announce(payload.topic, payload.name, t0)
-    from suspopt.studies.run import quiet_libraries
+    from suspopt.quiet import quiet_libraries
 
     quiet_libraries()
     out = Path(payload.out_dir)

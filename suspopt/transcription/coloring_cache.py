@@ -85,6 +85,19 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
         'design': list(config.design_names()),
         'grids': [(sc.segments, sc.order) for sc in config.scenarios()],
         'aggregate': config.objective.aggregate,
+        # an actuator's controls, gains and path bounds; the travel path constraint
+        'control': [
+            config.control.kind,
+            config.control.law,
+            list(config.controlled()),
+            bool(config.control.force_max),
+            bool(config.control.power_max),
+        ],
+        'travel': [
+            config.constraints.travel.enabled,
+            config.constraints.travel.bump > 0.0,
+            config.constraints.travel.rebound > 0.0,
+        ],
         'versions': [openmdao.__version__, dymos.__version__],
         'source': source_digest(),
     }

@@ -10,10 +10,17 @@ from suspopt.models.vehicle import VehicleODE
 from suspopt.spec.resolve import Scenario
 
 
-def build_phase(assembly: VehicleAssembly, scenario: Scenario) -> dm.Phase:
+def build_phase(
+    assembly: VehicleAssembly,
+    scenario: Scenario,
+    travel: tuple[float, float] | None = None,
+) -> dm.Phase:
     """A Dymos Radau phase of the vehicle's ODE over the scenario's horizon, from the zero
     initial state (``docs/model.md``), with the design variables as its (static)
-    parameters and the assembly's signals recorded along the trajectory."""
+    parameters, the assembly's open-loop controls as Dymos controls and its path bounds
+    as path constraints (``docs/codesign.md``), and the assembly's signals recorded along
+    the trajectory. ``travel``: (rebound, bump) travel [m], the suspension travel within
+    ``[-rebound, bump]`` at every node (0: that side unbounded)."""
     phase = dm.Phase(
         ode_class=VehicleODE,
         ode_init_kwargs={'assembly': assembly},
@@ -47,6 +54,32 @@ def build_phase(assembly: VehicleAssembly, scenario: Scenario) -> dm.Phase:
             opt=False,
             static_target=True,
             targets=[name],
+        )
+    for ctrl in assembly.controls:
+        # a value at each LGR point of a segment, the control the degree-(order - 1)
+        # polynomial through them: discontinuous at segment ends (docs/codesign.md)
+        phase.add_control(
+            ctrl.name,
+            units=ctrl.units,
+            shape=ctrl.shape,
+            lower=ctrl.lower,
+            upper=ctrl.upper,
+            ref0=ctrl.ref0,
+            ref=ctrl.ref,
+            opt=True,
+            continuity=False,
+            rate_continuity=False,
+            targets=[ctrl.name],
+        )
+    for bound in assembly.path_bounds:
+        phase.add_path_constraint(bound.signal, lower=bound.lower, upper=bound.upper, ref=bound.ref)
+    if travel is not None and (travel[0] > 0.0 or travel[1] > 0.0):
+        rebound, bump = travel
+        phase.add_path_constraint(
+            'travel',
+            lower=-rebound if rebound > 0.0 else None,
+            upper=bump if bump > 0.0 else None,
+            ref=max(rebound, bump),
         )
     for name in assembly.timeseries:
         phase.add_timeseries_output(name)

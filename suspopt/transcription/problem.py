@@ -31,6 +31,7 @@ from typing import Any
 import dymos as dm
 import numpy as np
 import openmdao.api as om
+from dymos.utils.lgr import lgr
 
 import suspopt.transcription.coloring_cache as cache
 from suspopt.driver import IpoptDriver, IterationInfo
@@ -43,6 +44,7 @@ from suspopt.models.objective import (
     WeightedObjectiveComp,
     WorstCaseGapComp,
 )
+from suspopt.records.control import ControlHistory
 from suspopt.records.solve import (
     Grid,
     Iterate,
@@ -72,6 +74,19 @@ SolveResult = SolveRecord
 #: the fewest segments (over all scenarios) for which ``'auto'`` takes the exact Hessian
 AUTO_EXACT_MIN_SEGMENTS = 200
 
+#: IPOPT's acceptable level for an open-loop control in the mixed fidelity (the study's
+#: ``optimizer.options`` override it): the gradient with respect to thousands of control
+#: values carries the multibody black box's finite-difference error, about 1e-6 of the
+#: dual infeasibility, which then stalls there at the optimum rather than reach ``tol``
+#: (``docs/codesign.md``)
+MIXED_CONTROL_SETTINGS = {'acceptable_tol': 1e-5, 'acceptable_iter': 5}
+
+
+def travel_limits(config: StudyConfig) -> tuple[float, float] | None:
+    """(rebound, bump) of ``[constraints.travel]``, or None (no travel constraint)."""
+    t = config.constraints.travel
+    return (t.rebound, t.bump) if t.enabled else None
+
 
 def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = True) -> str:
     """The Hessian ``hessian='auto'`` stands for: ``'exact'`` for optimizing the
@@ -82,8 +97,20 @@ def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = Tru
     iterations it saves), the mixed fidelity (the multibody partials are finite
     differences already), short roads (about even), and evaluations (a fixed design:
     the collocation equations alone). ``benchmarks/ipopt_iterations.py --hessian
-    limited-memory,exact,auto`` measures both on every case."""
+    limited-memory,exact,auto`` measures both on every case. A controlled car
+    (``docs/codesign.md``) takes the exact Hessian where L-BFGS needs ten times the
+    iterations or stalls: an open-loop control, in both fidelities (the linkages' own
+    curvature left out, ``hessian_frozen``; its many values make the reduced Hessian
+    ill-conditioned: the dynamics filter their fast components, only the effort term
+    weighs them), and a feedback law in the low fidelity (its gains multiply the states);
+    a feedback law in the mixed fidelity keeps L-BFGS (about as many iterations, each
+    cheaper)."""
     segments = sum(sc.segments for sc in config.scenarios())
+    control = config.control
+    if optimize_design and control.enabled:
+        if control.law == 'open_loop' or fidelity == 'low':
+            return 'exact'
+        return 'limited-memory'
     if (
         optimize_design
         and fidelity == 'low'
@@ -152,7 +179,7 @@ class VehicleProblem:
             self.phases, self.assemblies, self._quadrature = [], [], []
             for i, sc in enumerate(self.scenarios):
                 assembly = vehicle_assembly(config, sc, fidelity, self.modules)
-                phase = traj.add_phase(f's{i}', build_phase(assembly, sc))
+                phase = traj.add_phase(f's{i}', build_phase(assembly, sc, travel_limits(config)))
                 self.phases.append(phase)
                 self.assemblies.append(assembly)
                 self._quadrature.append(radau_quadrature_weights(sc.segments, sc.order, sc.horizon))
@@ -228,6 +255,8 @@ class VehicleProblem:
                     cache.load_hessian(self.cache_key) if use_cache and hessian == 'exact' else None
                 ),
             )
+            if fidelity == 'mixed' and any(a.controls for a in self.assemblies):
+                self.driver.opt_settings.update(MIXED_CONTROL_SETTINGS)
             self.driver.opt_settings.update(opt.options)
 
             self.recorder_path = None
@@ -245,9 +274,8 @@ class VehicleProblem:
                 p.set_val(f'objective_{i}.scales', np.array([s[t] for t in self.terms_names]))
             for phase, sc in zip(self.phases, self.scenarios):
                 phase.set_time_val(initial=0.0, duration=sc.horizon)
-            self.set_initial_guess(
-                None
-            )  # Dymos' default state value is 1, not the zero initial state
+            self.set_initial_guess(None)  # Dymos' default state value is 1, not the zero state
+            self.set_controls(None)
             p.final_setup()
             for phase, sc in zip(self.phases, self.scenarios):
                 grid = phase.options['transcription'].grid_data
@@ -311,6 +339,53 @@ class VehicleProblem:
                 arr = self.problem.get_val(path)
                 arr[0] = 0.0
                 self.problem.set_val(path, arr)
+
+    def control_var(self, scenario: int, name: str) -> str:
+        """The NLP's name of an open-loop control of a scenario."""
+        return f'traj.s{scenario}.controls:{name}'
+
+    def control_vars(self) -> list[str]:
+        """Every scenario's open-loop controls (the NLP's names)."""
+        return [
+            self.control_var(i, c.name) for i, a in enumerate(self.assemblies) for c in a.controls
+        ]
+
+    def set_controls(self, histories: list[ControlHistory | None] | None) -> None:
+        """Set every scenario's open-loop control (its values at the LGR points) from a
+        history on the same grid, or (None) to its starting value (``Control.initial``)."""
+        if histories is None:
+            histories = [None] * len(self.scenarios)
+        for i, (assembly, hist) in enumerate(zip(self.assemblies, histories)):
+            for c in assembly.controls:
+                path = self.control_var(i, c.name)
+                arr = self.problem.get_val(path)
+                if hist is None:
+                    arr[...] = c.initial
+                else:
+                    arr[...] = hist.values_at_points().reshape(arr.shape)
+                self.problem.set_val(path, arr)
+
+    def control_histories(self) -> tuple[ControlHistory, ...]:
+        """Every scenario's open-loop control as solved (none for a passive car or a
+        feedback law): the values at the LGR points of each segment."""
+        out = []
+        for i, (assembly, sc) in enumerate(zip(self.assemblies, self.scenarios)):
+            ctrl = assembly.spec.control
+            for c in assembly.controls:
+                assert ctrl is not None  # an assembly with controls has a control
+                values = self.problem.get_val(self.control_var(i, c.name), units=c.units)
+                out.append(
+                    ControlHistory.radau(
+                        name=c.name,
+                        units=c.units,
+                        corners=tuple(assembly.spec.layout.labels[k] for k in ctrl.corners),
+                        scenario=sc.name,
+                        segment_ends=np.linspace(0.0, sc.horizon, sc.segments + 1),
+                        tau=lgr(sc.order)[0],
+                        values=np.asarray(values),
+                    )
+                )
+        return tuple(out)
 
     def terms(self, scenario: int = 0) -> dict[str, float]:
         J = self.problem.get_val(f'quadrature_{scenario}.J')
@@ -384,6 +459,8 @@ class VehicleProblem:
         calls0 = self.multibody_calls()
         free = self.opt_names if optimize else []
         pinned = [self.design_var(n) for n in self.design_names if n not in free]
+        if not optimize:  # an evaluation holds the open-loop control too
+            pinned += self.control_vars()
         if self.aggregate == 'max' and not free:
             pinned.append('bound.t')
         t0 = time.perf_counter()
@@ -449,6 +526,7 @@ class VehicleProblem:
             multibody_calls={k: v - calls0.get(k, 0) for k, v in self.multibody_calls().items()},
             history=history,
             best_feasible_iterate=best_feasible(history, designs),
+            controls=self.control_histories(),
         )
 
     def _scenario_result(self, i: int, success: bool) -> ScenarioResult:

@@ -11,7 +11,7 @@ import numpy as np
 
 from suspopt.curves import SpringDamperUnit
 from suspopt.errors import ConfigError
-from suspopt.models.assembly import VehicleAssembly, VehicleSpec, assemble
+from suspopt.models.assembly import ControlSpec, VehicleAssembly, VehicleSpec, assemble
 from suspopt.models.metrics import static_loads
 from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.suspension import SuspensionModule
@@ -95,6 +95,7 @@ def vehicle_spec(
         tuple(axles[p[0]].track for p in pairs),
     )
     wheel_mass = np.array([axles[c.axle].wheel_mass for c in lay.corners])
+    static = static_loads(lay, v.chassis_mass, wheel_mass)
     corner_modules: tuple = ()
     if fidelity == 'mixed':
         modules = modules or multibody_modules(config)
@@ -115,9 +116,34 @@ def vehicle_spec(
         fd_form=config.multibody.fd_form,
         fd_step=config.multibody.fd_step,
         mount=config.multibody.mount,
-        static_load=static_loads(lay, v.chassis_mass, wheel_mass),
+        static_load=static,
         seats=tuple((s.name, s.x, s.y) for s in config.comfort.seats),
         units=corner_units(config) if any(study_units(config)) else (),
+        control=control_spec(config, static),
+    )
+
+
+def control_spec(config: StudyConfig, static_load: np.ndarray) -> ControlSpec | None:
+    """The controlled suspension of ``config`` (None: passive), its force scale resolved:
+    ``force_scale``, else ``force_max``, else a tenth of the controlled corners' mean
+    static load (``docs/codesign.md``)."""
+    c = config.control
+    if not c.enabled:
+        return None
+    labels = config.layout().labels
+    corners = tuple(labels.index(x) for x in config.controlled())
+    scale = c.force_scale or c.force_max or 0.1 * float(np.mean(static_load[list(corners)]))
+    return ControlSpec(
+        kind=c.kind,
+        law=c.law,
+        corners=corners,
+        force_max=c.force_max,
+        power_max=c.power_max,
+        c_min=c.c_min,
+        c_max=c.c_max,
+        force_scale=scale,
+        smoothing=c.smoothing,
+        velocity_floor=c.velocity_floor,
     )
 
 

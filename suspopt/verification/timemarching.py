@@ -24,10 +24,16 @@ discretization and integrator, not of the equations:
   right-hand-side evaluation the dependent coordinates are solved by Newton's method
   from the wheel travel, then the augmented system gives the accelerations. The largest
   constraint residual seen is reported.
+
+An open-loop control (``docs/codesign.md``) is marched as the collocation represents it
+(:class:`~suspopt.records.control.ControlHistory`: per segment the polynomial through its
+values at the LGR points), piece by piece between the segment ends, where it may jump; a
+feedback law is a block of the assembly. A controlled car is always marched by DOP853.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -44,9 +50,12 @@ from threadpoolctl import threadpool_limits
 
 from suspopt.errors import ConfigError, ModelError
 from suspopt.models.assembly import AssemblyEvaluator, integrand_signals
+from suspopt.models.design import GAIN_KINDS, design_kind
 from suspopt.models.linear import NonlinearModelError, check_linear, linearize
+from suspopt.models.metrics import static_loads
 from suspopt.multibody.components import SuspensionKinematicsComp
 from suspopt.multibody.reduced import reduced_modules
+from suspopt.records.control import ControlHistory
 from suspopt.records.trajectory import Trajectory
 from suspopt.road import RoadProfile
 from suspopt.spec.schema import Scenario, StudyConfig
@@ -114,6 +123,9 @@ class VehicleRHS:
         for comp in self._kinematics:  # the largest constraint residual seen is reported
             comp.residual_seen = 0.0
         self.n_evals = 0
+        #: the open-loop controls, and the segment whose polynomial applies (None: by time)
+        self.controls: tuple[ControlHistory, ...] = ()
+        self.segment: int | None = None
 
     @property
     def max_constraint_residual(self) -> float:
@@ -133,6 +145,8 @@ class VehicleRHS:
         """All model signals at times ``t`` (N,) for states ``y`` (n_states, N)."""
         signals: dict[str, np.ndarray] = {'time': np.atleast_1d(t), **self.design}
         signals.update(self.unpack(y))
+        for control in self.controls:
+            signals[control.name] = control(t, self.segment)
         self.evaluator(signals)
         signals['wheel_z'] = signals[self.assembly.wheel_signal]
         return signals
@@ -175,6 +189,7 @@ def simulate(
     modules: dict | None = None,
     method: str = 'auto',
     dense: Sequence[str] = (),
+    controls: Sequence[ControlHistory] = (),
 ) -> Trajectory:
     """March a model from the zero initial state over a scenario's horizon (docs/model.md).
 
@@ -192,7 +207,11 @@ def simulate(
     about 1e-8 relative); the relaxation's steps follow ``rtol`` (its J_k to about
     ``rtol``); the exact marching needs none. ``dense``: signals (e.g. ``travel``,
     ``tyre_load_ratio``) also returned at dense points along the whole trajectory, as
-    ``info['dense']`` (:class:`DenseSignals`)."""
+    ``info['dense']`` (:class:`DenseSignals`).
+
+    ``controls``: the open-loop controls of a controlled car (``docs/codesign.md``), those
+    of this scenario (by name; an open-loop car needs them). A controlled car is marched
+    by DOP853, which then also stops at every segment end of the controls."""
     if method not in METHODS:
         raise ValueError(f'method must be one of {METHODS}, got {method!r}')
     design = dict(config.design.initial() if design is None else design)
@@ -204,6 +223,9 @@ def simulate(
         np.linspace(0.0, sc.horizon, 2001) if t_eval is None else np.asarray(t_eval, dtype=float)
     )
     fallbacks: dict[str, str] = {}
+    if config.control.enabled and method == 'auto':  # time-varying inputs, nonlinear laws
+        fallbacks['exact'] = fallbacks['relaxation'] = 'a controlled car'
+        method = 'DOP853'
     if method in ('auto', 'exact'):
         try:
             if fidelity != 'low':
@@ -222,7 +244,9 @@ def simulate(
             if method == 'relaxation':
                 raise ModelError(f'time marching by relaxation failed: {err}') from err
             fallbacks['relaxation'] = str(err)
-    tr = _march_dop853(config, fidelity, design, sc, t_eval, rtol, atol, modules, tuple(dense))
+    tr = _march_dop853(
+        config, fidelity, design, sc, t_eval, rtol, atol, modules, tuple(dense), controls
+    )
     tr.info['fallbacks'] = fallbacks
     return tr
 
@@ -237,12 +261,14 @@ def _march_dop853(
     atol: float,
     modules: dict | None,
     dense: tuple[str, ...],
+    controls: Sequence[ControlHistory] = (),
 ) -> Trajectory:
     """DOP853 on the assembly's right-hand side, piece by piece between the road's
-    breakpoints under the wheels."""
+    breakpoints under the wheels and the controls' segment ends."""
     T = sc.horizon
     rhs = VehicleRHS(config, fidelity, design, sc, modules)
-    # times where the road's second derivative jumps under a wheel
+    rhs.controls = _scenario_controls(rhs, controls, sc)
+    # times where the road's second derivative jumps under a wheel, and the controls' jumps
     breaks = sorted(
         {
             (s + off) / sc.speed
@@ -250,6 +276,7 @@ def _march_dop853(
             for s in road.breakpoints()
             for off in rhs.offsets
         }
+        | {float(b) for c in rhs.controls for b in c.breakpoints()}
         | {0.0, T}
     )
     breaks = [b for b in breaks if 0.0 <= b <= T]
@@ -262,6 +289,8 @@ def _march_dop853(
         # the interpolant costs 3 more RHS calls per step: only when asked inside a piece
         interior = bool(dense) or bool(np.any(mask & (t_eval > ta) & (t_eval < tb)))
         y_a = y
+        if rhs.controls:  # the segment of the controls' polynomials on this piece
+            rhs.segment = int(rhs.controls[0].segment_of(0.5 * (ta + tb)))
         sol = solve_ivp(
             rhs, (ta, tb), y, method='DOP853', rtol=rtol, atol=atol, dense_output=interior
         )
@@ -288,6 +317,7 @@ def _march_dop853(
     ts = np.concatenate(pieces_t) if pieces_t else np.zeros(0)
     ys = np.concatenate(pieces_y, axis=1) if pieces_y else np.zeros((y.size, 0))
     wall = time.perf_counter() - t0
+    rhs.segment = None  # every time by its own segment
     values = rhs.signals(ts, ys[: rhs.n_states])
     info: dict[str, Any] = {
         'rhs_evaluations': rhs.n_evals,
@@ -575,12 +605,60 @@ def reference_scales_key(config: StudyConfig, scenario: int | Scenario) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
+def starting_controls(
+    config: StudyConfig, scenario: int | Scenario = 0
+) -> tuple[ControlHistory, ...]:
+    """The open-loop controls of ``config``'s model held at their starting values
+    (:attr:`~suspopt.models.assembly.Control.initial`: no force, the softest damping):
+    what the collocation starts from."""
+    sc = _scenario(config, scenario)
+    assembly = vehicle_assembly(config, sc, 'low')
+    labels = assembly.spec.layout.labels
+    spec = assembly.spec.control
+    return tuple(
+        ControlHistory.constant(
+            name=c.name,
+            units=c.units,
+            corners=tuple(labels[k] for k in spec.corners) if spec else (),
+            scenario=sc.name,
+            horizon=sc.horizon,
+            value=c.initial,
+        )
+        for c in assembly.controls
+    )
+
+
+def _scenario_controls(
+    rhs: VehicleRHS, controls: Sequence[ControlHistory], sc: Scenario
+) -> tuple[ControlHistory, ...]:
+    """The open-loop controls ``rhs``'s model needs, from ``controls`` (those of scenario
+    ``sc``, by name); a missing one is an error, not a zero control."""
+    out = []
+    for c in rhs.assembly.controls:
+        mine = [h for h in controls if h.name == c.name and h.scenario in (sc.name, '')]
+        if not mine:
+            raise ValueError(
+                f'the model has the open-loop control {c.name!r}: give its history '
+                f'(scenario {sc.name!r}) to march it'
+            )
+        out.append(mine[0])
+    if len({(c.segment_ends, c.tau) for c in out}) > 1:
+        raise ValueError('the open-loop controls of one scenario must share their grid')
+    return tuple(out)
+
+
 def reference_scales(config: StudyConfig, *, cache: bool = True) -> Scales:
     """``s_k`` of the ``reference`` normalization, per scenario: J_k of the low-fidelity
     model at the initial design by time marching (docs/model.md) — exactly where the model is
     linear. Each scenario's values are cached (:mod:`suspopt.transcription.coloring_cache`,
     :func:`reference_scales_key`): a second run of the same study reuses them, a changed
-    input computes them again; ``cache=False`` neither reads nor writes the cache."""
+    input computes them again; ``cache=False`` neither reads nor writes the cache. A
+    controlled car (``docs/codesign.md``) is normalized as its passive car (the initial
+    design without the control), and each actuator's effort ``control_<c>`` by ``F_c² T``,
+    the squared static load of its corner over the horizon: an actuator holding the
+    corner's static load throughout scores 1."""
+    if config.control.enabled:
+        return _controlled_reference_scales(config)
     out = []
     terms = config.terms()
     weights = config.objective.weights
@@ -601,4 +679,38 @@ def reference_scales(config: StudyConfig, *, cache: bool = True) -> Scales:
                 "the initial design; use normalization = 'custom' with scales"
             )
         out.append({t: J[t] if J[t] > 0.0 else 1.0 for t in terms})
+    return tuple(out)
+
+
+def _controlled_reference_scales(config: StudyConfig) -> Scales:
+    """:func:`reference_scales` of a controlled car: its passive car's, and ``F_c² T``
+    for each actuator's effort."""
+    passive = dataclasses.replace(
+        config,
+        control=dataclasses.replace(config.control, kind='none', law='open_loop', corners=()),
+        design=dataclasses.replace(
+            config.design,
+            variables={
+                n: v for n, v in config.design.variables.items() if design_kind(n) not in GAIN_KINDS
+            },
+        ),
+        objective=dataclasses.replace(
+            config.objective,
+            weights={
+                t: w for t, w in config.objective.weights.items() if not t.startswith('control_')
+            },
+        ),
+    )
+    lay = config.layout()
+    static = static_loads(
+        lay,
+        config.vehicle.chassis_mass,
+        np.array([config.vehicle.axles[c.axle].wheel_mass for c in lay.corners]),
+    )
+    out = []
+    for sc, base in zip(config.scenarios(), reference_scales(passive)):
+        scales = dict(base)
+        for label in config.controlled():
+            scales[f'control_{label}'] = float(static[lay.labels.index(label)] ** 2 * sc.horizon)
+        out.append({t: scales[t] for t in config.terms()})
     return tuple(out)

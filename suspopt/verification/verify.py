@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from suspopt.records.control import ControlHistory
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
 from suspopt.records.verification import Comparison, ScenarioComparison, Verification
@@ -80,9 +81,11 @@ def march(
     *,
     modules: dict | None = None,
     keep: bool = False,
+    controls: tuple[ControlHistory, ...] = (),
 ) -> list[Marched]:
-    """Every scenario of ``design`` marched at the verification's tolerances; with
-    ``keep``, each trajectory (2001 points) is kept."""
+    """Every scenario of ``design`` marched at the verification's tolerances, with its
+    open-loop ``controls`` (``docs/codesign.md``); with ``keep``, each trajectory (2001
+    points) is kept."""
     out = []
     for i, sc in enumerate(config.scenarios()):
         tr = simulate(
@@ -94,6 +97,7 @@ def march(
             rtol=VERIFY_RTOL,
             atol=VERIFY_ATOL,
             t_eval=None if keep else np.array([0.0, sc.horizon]),
+            controls=tuple(c for c in controls if c.scenario == sc.name),
         )
         terms = dict(zip(config.terms(), (float(x) for x in tr.J)))
         out.append(
@@ -135,14 +139,15 @@ def time_marching_check(
     *,
     modules: dict | None = None,
     keep: bool = False,
+    controls: tuple[ControlHistory, ...] = (),
 ) -> tuple[Comparison, list[Trajectory]]:
-    """Time-march ``design`` in every scenario and compare with the collocation's
-    ``terms``: verified if every term with a nonzero weight agrees within
-    :data:`VERIFY_TOLERANCE` (relative to its time-marched value, at least
+    """Time-march ``design`` (and its open-loop ``controls``) in every scenario and
+    compare with the collocation's ``terms``: verified if every term with a nonzero weight
+    agrees within :data:`VERIFY_TOLERANCE` (relative to its time-marched value, at least
     :data:`VERIFY_FLOOR` of its scale). With ``keep``, the trajectories come too."""
     t0 = time.perf_counter()
     weights = config.objective.weights
-    marched = march(config, fidelity, design, scales, modules=modules, keep=keep)
+    marched = march(config, fidelity, design, scales, modules=modules, keep=keep, controls=controls)
     scenarios = []
     for m, coll, s in zip(marched, terms, scales):
         diffs = {
@@ -195,6 +200,7 @@ def verify(
         scales,
         modules=modules,
         keep=keep,
+        controls=record.controls,
     )
     return record.with_verification(Verification.of(comparison)), trajectories
 

@@ -16,7 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[2] / 'suspopt'
 #: bottom to top; the packages of one tuple are independent of each other
 LAYERS: tuple[tuple[str, ...], ...] = (
     ('errors',),
-    ('inputs', 'interrupts'),
+    ('inputs', 'interrupts', 'quiet'),
     ('records', 'curves'),
     ('road', 'multibody', 'driver'),
     ('models',),

@@ -1,0 +1,117 @@
+"""Control co-design (``docs/codesign.md``): a suspension's hardware and its controller
+optimized together, in one NLP, three ways:
+
+* ``passive`` — the spring-dampers alone (no actuator: the baseline);
+* ``open_loop`` — the hardware with the actuator's (or variable damper's) whole time
+  history as Dymos controls: the best any controller could do with full preview of the
+  road, a performance bound;
+* ``feedback`` — the hardware with a realizable state-feedback law whose gains are design
+  variables (:mod:`suspopt.models.control`), verified in closed loop by time marching.
+
+All three minimize the same objective with the same scales (the controlled study's:
+the passive car's effort is zero), so their ``f`` compare directly; the share of the
+bound's gain the feedback law realizes is :meth:`~suspopt.records.codesign.CodesignStudy.
+recovered`. The controlled variants start from the passive optimum's hardware.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+from suspopt.errors import ConfigError
+from suspopt.models.design import GAIN_KINDS, design_kind
+from suspopt.records.codesign import FEEDBACK, OPEN_LOOP, PASSIVE, CodesignStudy
+from suspopt.records.solve import SolveRecord
+from suspopt.spec import StudyConfig, config_from_dict
+from suspopt.studies.run import Progress, optimize
+from suspopt.transcription.problem import Scales
+from suspopt.verification.scales import resolve_scales
+
+
+def _without_control_terms(table: Any) -> Any:
+    if isinstance(table, dict):
+        return {k: v for k, v in table.items() if not k.startswith('control')}
+    return table
+
+
+def variant(config: StudyConfig, law: str) -> StudyConfig:
+    """``config`` (a controlled study) as the ``passive`` car (no actuator, no effort
+    terms, no gains) or with its control under ``law`` (``open_loop``: no gains;
+    ``feedback``: the gains of ``config``'s design, or their defaults)."""
+    if not config.control.enabled:
+        raise ConfigError('control.kind: a co-design study needs a controlled suspension')
+    data = config.to_dict()
+    design = data['design']
+    data['design'] = {
+        k: v
+        for k, v in design.items()
+        if k == 'per_corner' or law == FEEDBACK or design_kind(k) not in GAIN_KINDS
+    }
+    if law == PASSIVE:
+        data['control'] = {}
+        obj = data['objective']
+        obj['weights'] = _without_control_terms(obj['weights'])
+        obj['scales'] = _without_control_terms(obj['scales'])
+    else:
+        data['control'] = {**data['control'], 'law': law}
+    return config_from_dict(data)
+
+
+def passive_scales(config: StudyConfig, scales: Scales) -> Scales:
+    """The controlled study's scales, for its passive car's terms."""
+    terms = variant(config, PASSIVE).terms()
+    return tuple({t: s[t] for t in terms} for s in scales)
+
+
+def run_codesign(
+    config: StudyConfig,
+    fidelity: str = 'low',
+    *,
+    laws: tuple[str, ...] = (PASSIVE, OPEN_LOOP, FEEDBACK),
+    scales: Scales | None = None,
+    passive: SolveRecord | None = None,
+    progress: Progress | None = None,
+    log: Callable[[str], None] | None = None,
+    verify: bool = True,
+) -> CodesignStudy:
+    """The passive, open-loop and feedback co-design of ``config``'s controlled suspension
+    in one model (``laws``: which of them), each verified by time marching. ``passive``:
+    an already solved passive optimum to reuse (same objective and scales)."""
+    say = log or (lambda msg: None)
+    t0 = time.perf_counter()
+    scales = resolve_scales(config) if scales is None else scales
+    entries: dict[str, SolveRecord] = {}
+    start: dict[str, float] = {}
+    if PASSIVE in laws or passive is not None:
+        if passive is None:
+            say(f'{fidelity} fidelity: the passive optimum')
+            passive = optimize(
+                variant(config, PASSIVE),
+                fidelity,
+                scales=passive_scales(config, scales),
+                progress=progress,
+                verify=verify,
+            )
+        entries[PASSIVE] = passive
+        if passive.success:
+            start = dict(passive.design)
+    for law in (OPEN_LOOP, FEEDBACK):
+        if law not in laws:
+            continue
+        cfg = variant(config, law)
+        first = {
+            **cfg.design.initial(),
+            **{k: v for k, v in start.items() if k in cfg.design.names},
+        }
+        say(f'{fidelity} fidelity: {config.control.kind} {law.replace("_", "-")} co-design')
+        entries[law] = optimize(
+            cfg, fidelity, start=first, scales=scales, progress=progress, verify=verify
+        )
+    return CodesignStudy(
+        fidelity=fidelity,
+        kind=config.control.kind,
+        entries=entries,
+        wall_time_s=time.perf_counter() - t0,
+    )
