@@ -29,6 +29,7 @@ import openmdao
 from suspopt.driver.hessian import HessianStructure
 from suspopt.driver.sparsity import Coloring
 from suspopt.spec.schema import StudyConfig
+from suspopt.transcription.constraints import structure as constraint_structure
 
 _MODEL_SOURCES = (
     'models',
@@ -69,6 +70,8 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
         'design': list(config.design_names()),
         'grids': [(sc.segments, sc.order) for sc in config.scenarios()],
         'aggregate': config.objective.aggregate,
+        'seats': len(config.comfort.seats),
+        'constraints': constraint_structure(config),
         'versions': [openmdao.__version__, dymos.__version__],
         'source': _source_digest(),
     }

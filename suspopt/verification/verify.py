@@ -11,14 +11,16 @@ from __future__ import annotations
 import functools
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from suspopt.records.constraints import ConstraintCheck
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
 from suspopt.records.verification import Comparison, ScenarioComparison, Verification
 from suspopt.spec import StudyConfig
+from suspopt.transcription.constraints import Bound, Worst, bounds, worst_on_path
 from suspopt.transcription.problem import Scales
 from suspopt.verification.background import Background
 from suspopt.verification.timemarching import simulate
@@ -32,6 +34,18 @@ VERIFY_TOLERANCE = 5e-3
 #: against a tight integration)
 VERIFY_RTOL, VERIFY_ATOL = 1e-6, 1e-9
 METHOD = f'time-marching (SciPy DOP853, rtol {VERIFY_RTOL:g})'
+
+#: a path constraint is checked along the time-marching trajectory sampled this finely
+#: [s]: a peak between two samples is missed by at most ``1 - cos(π f Δt)`` of its
+#: amplitude, 0.1 % for a 15 Hz wheel hop
+CONSTRAINT_SAMPLING_S = 1e-3
+#: a path constraint holds by time marching if its worst value exceeds the bound by at
+#: most this share of the bound (the allowed excursion of its signal: the bump or rebound
+#: travel, the tyre's allowed unloading ``1 - margin``) ...
+CONSTRAINT_RTOL = 0.03
+#: ... or by this much in the signal's units (a bound near zero): 0.5 mm of travel, 0.5 %
+#: of the static tyre load
+CONSTRAINT_ATOL = {'travel': 5e-4, 'tyre_load_ratio': 5e-3}
 
 
 def objective_value(
@@ -49,10 +63,25 @@ def combine(config: StudyConfig, scenario_objectives: list[float]) -> float:
     return float(sum(sc.weight * f for sc, f in zip(config.scenarios(), scenario_objectives)))
 
 
+def constraint_tolerance(bound: Bound) -> float:
+    """How far time marching may find path constraint ``bound`` exceeded and still hold
+    (:data:`CONSTRAINT_RTOL`, :data:`CONSTRAINT_ATOL`): the collocation holds it at the
+    nodes only, and between them a peak of the wheel hop (``NODES_PER_PERIOD`` nodes per
+    period of the automatic grid) can rise a few per cent above the nodes' samples."""
+    allowed = abs(bound.bound - bound.offset)  # the bound on the signal itself
+    return max(CONSTRAINT_RTOL * allowed, CONSTRAINT_ATOL.get(bound.signal, 0.0))
+
+
+def dense_times(horizon: float) -> np.ndarray:
+    """The times a trajectory is sampled at to check the path constraints."""
+    return np.linspace(0.0, horizon, max(2001, int(np.ceil(horizon / CONSTRAINT_SAMPLING_S)) + 1))
+
+
 @dataclass(frozen=True)
 class Marched:
     """One scenario marched in time: its terms, ``f_s``, cost and (mixed fidelity) the
-    largest constraint residual of the linkages; the trajectory if it was kept."""
+    largest constraint residual of the linkages; the worst value of every path
+    constraint (by name) along the dense trajectory; the trajectory if it was kept."""
 
     name: str
     terms: dict[str, float]
@@ -60,6 +89,7 @@ class Marched:
     wall_time_s: float
     max_constraint_residual_m: float | None
     trajectory: Trajectory | None
+    worst: dict[str, Worst] = field(default_factory=dict)
 
 
 def march(
@@ -71,10 +101,14 @@ def march(
     modules: dict | None = None,
     keep: bool = False,
 ) -> list[Marched]:
-    """Every scenario of ``design`` marched at the verification's tolerances; with
-    ``keep``, each trajectory (2001 points) is kept."""
+    """Every scenario of ``design`` marched at the verification's tolerances, its path
+    constraints checked along a trajectory sampled every :data:`CONSTRAINT_SAMPLING_S`;
+    with ``keep``, each trajectory (at least 2001 points) is kept."""
     out = []
+    path = [b for b in bounds(config) if b.kind == 'path']
+    labels = config.layout().labels
     for i, sc in enumerate(config.scenarios()):
+        dense = dense_times(sc.horizon) if path else None
         tr = simulate(
             config,
             fidelity,
@@ -83,8 +117,13 @@ def march(
             modules=modules,
             rtol=VERIFY_RTOL,
             atol=VERIFY_ATOL,
-            t_eval=None if keep else np.array([0.0, sc.horizon]),
+            t_eval=dense if path else None if keep else np.array([0.0, sc.horizon]),
         )
+        worst = {}
+        for b in path:
+            w = worst_on_path(b, [(sc.name, tr.t, tr[b.signal])], labels)
+            if w is not None:
+                worst[b.name] = w
         terms = dict(zip(config.terms(), (float(x) for x in tr.J)))
         out.append(
             Marched(
@@ -96,6 +135,7 @@ def march(
                 if fidelity == 'mixed'
                 else None,
                 trajectory=tr if keep else None,
+                worst=worst,
             )
         )
     return out
@@ -119,7 +159,9 @@ def time_marching_check(
 ) -> tuple[Comparison, list[Trajectory]]:
     """Time-march ``design`` in every scenario and compare with the collocation's
     ``terms``: verified if every term with a nonzero weight agrees within
-    :data:`VERIFY_TOLERANCE` (relative). With ``keep``, the trajectories come too."""
+    :data:`VERIFY_TOLERANCE` (relative) and every path constraint holds along the dense
+    time-marching trajectories (:func:`constraint_tolerance`). With ``keep``, the
+    trajectories come too."""
     t0 = time.perf_counter()
     weights = config.objective.weights
     marched = march(config, fidelity, design, scales, modules=modules, keep=keep)
@@ -145,8 +187,30 @@ def time_marching_check(
         objective=combine(config, [s.objective for s in scenarios]),
         max_rel_diff=max([0.0] + [s.max_rel_diff for s in scenarios]),
         time_s=time.perf_counter() - t0,
+        constraints=constraint_checks(config, marched),
     )
     return comparison, [m.trajectory for m in marched if m.trajectory is not None]
+
+
+def constraint_checks(config: StudyConfig, marched: list[Marched]) -> tuple[ConstraintCheck, ...]:
+    """Every path constraint at its worst over the scenarios' time-marching trajectories."""
+    out = []
+    for b in bounds(config):
+        found = [m.worst[b.name] for m in marched if b.name in m.worst]
+        if b.kind != 'path' or not found:
+            continue
+        w = min(found, key=lambda x: b.margin(x.value))
+        out.append(
+            ConstraintCheck(
+                name=b.name,
+                upper=b.upper,
+                bound=b.bound,
+                value=w.value,
+                tolerance=constraint_tolerance(b),
+                where=w.where,
+            )
+        )
+    return tuple(out)
 
 
 def verify(
