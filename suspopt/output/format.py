@@ -50,3 +50,33 @@ def scales_line(
         + ', '.join(f'{t} {s[t]:.6g}' for t in terms)
         + f'); f = {term_formula(terms, weights)}.'
     )
+
+
+def constraint_table(res: SolveRecord) -> list[str]:
+    """The engineering constraints of a result (``docs/metrics.md``, "Constraints"): each
+    side's bound, its worst value by collocation and by time marching, the margin (the
+    collocation's; negative: violated) and whether the design lies on it. Empty if the
+    study has none."""
+    rows = res.constraint_rows()
+    if not rows:
+        return []
+    lines = [
+        '| constraint | bound | collocation | time marching | margin | active | worst at |',
+        '|---|---|---|---|---|---|---|',
+    ]
+    for v, k in rows:
+        unit = f' {v.units}' if v.units else ''
+        marched = '—' if k is None else fmt(k.value) + (' **violated**' if k.violated else '')
+        lines.append(
+            f'| `{v.name}` | {"≤" if v.upper else "≥"} {v.bound:g}{unit} | {fmt(v.value)} | '
+            f'{marched} | {fmt(v.margin, 3)} | {"**active**" if v.active else "no"} | '
+            f'{v.where or "—"} |'
+        )
+    active = [v.name for v, _ in rows if v.active]
+    lines += [
+        '',
+        'Active constraints: ' + (', '.join(f'`{n}`' for n in active) if active else 'none') + '.',
+    ]
+    if res.infeasibility is not None:
+        lines += ['', f'**Infeasible:** {res.infeasibility.describe()}.']
+    return lines

@@ -7,7 +7,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from suspopt.output.figures import plot_set, read_setting, road_figure, save_figure
-from suspopt.output.format import FIDELITY_LABELS, design_columns, fmt, term_columns, verdict
+from suspopt.output.format import (
+    FIDELITY_LABELS,
+    constraint_table,
+    design_columns,
+    fmt,
+    term_columns,
+    verdict,
+)
 from suspopt.output.rundir import read_trajectory, write_text
 from suspopt.records.solve import SolveRecord
 
@@ -47,6 +54,9 @@ def run_markdown(res: SolveRecord) -> str:
             '|' + '---|' * len(J),
             '| ' + ' | '.join(fmt(J[t], 5) for t in J) + ' |',
         ]
+    if res.constraints:
+        lines += ['', 'Engineering constraints (collocation: its nodes; time marching: dense):', '']
+        lines += constraint_table(res)
     c = res.verification.comparison
     if c is not None:
         lines += [

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from suspopt.records.codec import Node, Record
-from suspopt.records.constraints import ConstraintCheck, ConstraintValue
+from suspopt.records.constraints import ConstraintCheck, ConstraintValue, Infeasibility
 from suspopt.records.verification import Check, Verification
 
 #: a constraint violation (IPOPT's inf_pr, scaled) below which an iterate counts as feasible
@@ -123,6 +123,8 @@ class SolveRecord(Record):
     #: every side of every engineering constraint at the solution (collocation; where
     #: IPOPT stopped if it did not converge); the time marching's are in ``verification``
     constraints: tuple[ConstraintValue, ...] = ()
+    #: a failed solve with a constraint violated where IPOPT stopped: which, by how much
+    infeasibility: Infeasibility | None = field(default=None, metadata={'omit_none': True})
     #: the study description (plain data) of a run's own file, ``result.json``
     config: dict[str, Any] | None = field(default=None, metadata={'omit_none': True})
 
@@ -155,18 +157,6 @@ class SolveRecord(Record):
         c = self.verification.comparison
         checks = {k.name: k for k in c.constraints} if c is not None else {}
         return [(v, checks.get(v.name)) for v in self.constraints]
-
-    def infeasibility(self) -> ConstraintValue | None:
-        """The constraint violated most (relative to its bound's magnitude) where IPOPT
-        stopped without converging: for an infeasible design box, the constraint no
-        design meets and its smallest violation IPOPT reached; None if none is violated
-        (or the solve converged)."""
-        if self.success:
-            return None
-        bad = [v for v in self.constraints if v.margin < 0.0]
-        if not bad:
-            return None
-        return min(bad, key=lambda v: v.margin / (abs(v.bound) or 1.0))
 
     def formula(self) -> str:
         """The objective written out: each ``f_s`` (eq. 4) and how they combine."""
@@ -279,6 +269,7 @@ __all__ = [
     'Check',
     'ConstraintCheck',
     'ConstraintValue',
+    'Infeasibility',
     'Grid',
     'Iterate',
     'NlpSize',

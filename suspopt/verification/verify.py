@@ -11,16 +11,17 @@ from __future__ import annotations
 import functools
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from suspopt.records.constraints import ConstraintCheck
+from suspopt.errors import ModelError
+from suspopt.records.constraints import ConstraintCheck, Infeasibility
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
 from suspopt.records.verification import Comparison, ScenarioComparison, Verification
 from suspopt.spec import StudyConfig
-from suspopt.transcription.constraints import Bound, Worst, bounds, worst_on_path
+from suspopt.transcription.constraints import ACTIVE_RTOL, Bound, Worst, bounds, worst_on_path
 from suspopt.transcription.problem import Scales
 from suspopt.verification.background import Background
 from suspopt.verification.timemarching import simulate
@@ -213,6 +214,44 @@ def constraint_checks(config: StudyConfig, marched: list[Marched]) -> tuple[Cons
     return tuple(out)
 
 
+def infeasibility(
+    config: StudyConfig,
+    record: SolveRecord,
+    scales: Scales,
+    modules: dict | None = None,
+) -> Infeasibility | None:
+    """The constraint a failed solve violates most (relative to its scale) at the design
+    where IPOPT stopped, or None if it meets every one there: a path constraint by time
+    marching that design (the unconverged collocation's signals are not the dynamics'),
+    beyond :func:`constraint_tolerance`; a design-only one at its exact value."""
+    if record.success or not record.constraints:
+        return None
+    by_name = {b.name: b for b in bounds(config)}
+    found: list[tuple[float, Infeasibility]] = []
+    if any(b.kind == 'path' for b in by_name.values()):
+        try:
+            marched = march(config, record.fidelity, record.design, scales, modules=modules)
+        except ModelError:  # the design cannot be marched: only the design-only ones
+            marched = []
+        for k in constraint_checks(config, marched):
+            if k.violated:
+                found.append(
+                    (
+                        -k.margin / by_name[k.name].scale,
+                        Infeasibility(
+                            k.name, by_name[k.name].units, k.upper, k.bound, k.value, k.where
+                        ),
+                    )
+                )
+    for v in record.constraints:
+        scale = by_name[v.name].scale if v.name in by_name else abs(v.bound) or 1.0
+        if v.kind == 'design' and v.margin < -ACTIVE_RTOL * scale:
+            found.append(
+                (-v.margin / scale, Infeasibility(v.name, v.units, v.upper, v.bound, v.value))
+            )
+    return max(found, key=lambda x: x[0])[1] if found else None
+
+
 def verify(
     config: StudyConfig,
     record: SolveRecord,
@@ -224,7 +263,8 @@ def verify(
     """``record`` with its verification: time marching compared with its terms (a failed
     solve has nothing to verify). With ``keep``, the time-marched trajectories come too."""
     if not record.success:
-        return record.with_verification(
+        failed = replace(record, infeasibility=infeasibility(config, record, scales, modules))
+        return failed.with_verification(
             Verification.not_applicable('not verified: the solve failed')
         ), []
     comparison, trajectories = time_marching_check(
