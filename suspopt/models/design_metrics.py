@@ -4,14 +4,14 @@ alone, not of the drive, that an engineering constraint bounds.
 * the roll gradient [deg/g], the steady-state body roll per g of lateral acceleration
   (full car): each axle's roll stiffness, springs and anti-roll bar in series with the
   tyres, against the roll moment of the sprung mass about the roll axis, gravity
-  included (Gillespie, *Fundamentals of Vehicle Dynamics*, SAE 1992, ch. 7, "Roll rate":
+  included (Gillespie, *Fundamentals of Vehicle Dynamics*, SAE 1992, roll in cornering:
   ``dφ/da_y = W h1 / (K_φf + K_φr - W h1)``; tyres in series: Milliken & Milliken,
   *Race Car Vehicle Dynamics*, SAE 1995, ch. 16, "Ride and roll rates");
 * the front axle's share of the roll stiffness;
 * the undamped heave and pitch frequencies [Hz] of the sprung mass on the corners' ride
   rates (the wheel rate in series with the tyre), from the eigenvalues of its stiffness
-  and mass matrices (Gillespie, ch. 5, "Pitch plane dynamics", gives the two-axle closed
-  form the tests check).
+  and mass matrices (Gillespie, on pitch and bounce, gives the two-axle closed form
+  the tests check).
 
 Every equation is a NumPy function here, wrapped by one OpenMDAO component with analytic
 partials; the components are vectorized over corners (and axles), their inputs and
@@ -83,7 +83,7 @@ def roll_moment_arm(
 
 def roll_gradient(K_roll: ArrayLike, sprung_mass: float, arm: float) -> np.ndarray:
     """The steady-state roll per g of lateral acceleration [deg/g], ``W h' / (ΣK_φ - W
-    h')`` rad (Gillespie ch. 7): the lateral force ``W`` per g at the CG a height ``h'``
+    h')`` rad (Gillespie): the lateral force ``W`` per g at the CG a height ``h'``
     above the roll axis, and gravity's moment ``W h' φ`` once the body has rolled."""
     moment = sprung_mass * GRAVITY * arm
     return DEG * moment / (np.sum(K_roll, axis=-1) - moment)
