@@ -63,6 +63,11 @@ def summary(res: SolveRecord) -> str:
     lines.append(
         f'  scales ({res.normalization}) ' + '  '.join(f'{k} = {v:.5g}' for k, v in s.items())
     )
+    if res.constraints:
+        active = [v.name for v in res.constraints if v.active]
+        lines.append(
+            f'  constraints: {len(res.constraints)}, active: {", ".join(active) or "none"}'
+        )
     c = res.verification.comparison
     if c is not None:
         lines.append(
