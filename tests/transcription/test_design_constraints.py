@@ -85,3 +85,18 @@ def test_every_side_is_a_named_bound():
         'ride_frequency.pitch.min',
         'ride_frequency.pitch.max',
     ]
+
+
+def test_mixed_fidelity_wheel_rates_are_the_linkages():
+    """In the mixed model the wheel rate is each axle's linkage at its reference pose,
+    ``a k_S + b``; the design metrics then see the linkage's rate, not ``k_S``."""
+    from suspopt.multibody.kinematics import reference_wheel_rate
+    from suspopt.transcription.vehicle import multibody_modules
+
+    modules = multibody_modules(CFG)
+    rates = wheel_rates(CFG, 'mixed', modules)
+    for i, c in enumerate(CFG.layout().corners):
+        m = modules[CFG.vehicle.axles[c.axle].mechanism]
+        a, b, _ = reference_wheel_rate(getattr(m, 'base_mechanism', m))
+        assert (rates.slope[i], rates.offset[i]) == pytest.approx((a, b), rel=1e-12)
+    assert not np.allclose(rates.slope, 1.0)  # the linkages' motion ratios are not 1
