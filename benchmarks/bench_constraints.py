@@ -46,7 +46,7 @@ def study_case(cfg: StudyConfig, verify: bool) -> dict:
     s = study.steps
     return {
         'wall_s': wall,
-        **{f'{k}_solve_s': s[k].times.solve_s for k in ('low', 'mixed')},
+        **{f'{k}_solve_s': getattr(s[k].times, 'solve_s', None) for k in ('low', 'mixed')},
         **{f'{k}_iterations': s[k].iterations for k in ('low', 'mixed')},
         **{f'{k}_f': s[k].objective for k in ('low', 'mixed')},
         'active': sorted({v.name for k in ('low', 'mixed') for v in s[k].constraints if v.active}),

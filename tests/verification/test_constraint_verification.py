@@ -68,12 +68,14 @@ def test_worst_value_and_where(name, signal, value, corner, time):
 def test_worst_over_scenarios():
     b = _bound('travel.bump')
     w = worst_on_path(b, [('a', T, TRAVEL), ('b', T, 2.0 * TRAVEL)], ['1', '2'])
+    assert w is not None
     assert (w.scenario, w.value) == ('b', pytest.approx(0.06))
 
 
 def _marched(worst_bump: float) -> list[Marched]:
     b = _bound('travel.bump')
     w = worst_on_path(b, [('main', T, TRAVEL * worst_bump / 0.03)], ['1', '2'])
+    assert w is not None
     return [Marched('main', {}, 1.0, 0.1, None, None, {'travel.bump': w})]
 
 
