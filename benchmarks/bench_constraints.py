@@ -2,7 +2,7 @@
 
     python benchmarks/bench_constraints.py [--parts study horizon] [--horizon 5]
                                            [--segments 80] [--horizons 10 80]
-                                           [--density 16] [--travel 0.03]
+                                           [--density 16] [--travel 0.05]
                                            [--no-verify]
 
 * ``study``: the two-step study of the default full car (``suspopt init --model
@@ -145,7 +145,7 @@ def main() -> None:
     ap.add_argument('--segments', type=int, default=80, help='study segments')
     ap.add_argument('--horizons', type=float, nargs='+', default=[10.0, 80.0])
     ap.add_argument('--density', type=float, default=16.0, help='segments per second')
-    ap.add_argument('--travel', type=float, default=0.03, help='horizon part: bump/rebound [m]')
+    ap.add_argument('--travel', type=float, default=0.05, help='horizon part: bump/rebound [m]')
     ap.add_argument('--no-verify', action='store_true')
     a = ap.parse_args()
     print(f'# engineering constraints — {machine()}, suspopt {git_revision()}\n', flush=True)
