@@ -13,6 +13,7 @@ from suspopt.records.compare import (
     ModelBest,
     Topology,
 )
+from suspopt.records.constraints import ConstraintCheck, ConstraintValue, Infeasibility
 from suspopt.records.control import ControlHistory
 from suspopt.records.coupling import CouplingStudy, CouplingSummary
 from suspopt.records.pareto import ParetoFront, ParetoInitial, ParetoPoint
@@ -42,7 +43,17 @@ BOUNDS = {'k_S1': (1e4, 5e4), 'k_S2': (1e4, 5e4), 'c_S1': (1e3, 5e3), 'c_S2': (1
 
 def comparison(diff: float = 1e-4) -> Comparison:
     sc = ScenarioComparison('city', dict(SCALES), 1.0, diff, 'pitch', 0.25, 1e-13)
-    return Comparison('time-marching (SciPy DOP853, rtol 1e-06)', 5e-3, (sc,), 1.0, diff, 0.3)
+    check = ConstraintCheck('travel.bump', True, 0.05, 0.0498, 1.5e-3, 'scenario city')
+    return Comparison(
+        'time-marching (SciPy DOP853, rtol 1e-06)', 5e-3, (sc,), 1.0, diff, 0.3, (check,)
+    )
+
+
+#: the engineering constraints of a solve: a path one (active) and a design-only one
+CONSTRAINTS = (
+    ConstraintValue('travel.bump', 'path', 'm', True, 0.05, 0.05, True, 'scenario city'),
+    ConstraintValue('roll_gradient.max', 'design', 'deg/g', True, 3.5, 3.1, False),
+)
 
 
 def solve(
@@ -103,6 +114,10 @@ def solve(
             )
             for name in ('city', 'highway')
         ),
+        constraints=CONSTRAINTS,
+        infeasibility=None
+        if success
+        else Infeasibility('travel.bump', 'm', True, 0.05, 0.061, 'scenario city'),
         config=CONFIG,
     )
 

@@ -80,6 +80,11 @@ def summary(res: SolveRecord) -> str:
             f'  scales ({res.normalization}) '
             + '  '.join(f'{k} = {v:.5g}' for k, v in res.scales.items())
         )
+    if res.constraints:
+        active = [v.name for v in res.constraints if v.active]
+        lines.append(
+            f'  constraints: {len(res.constraints)}, active: {", ".join(active) or "none"}'
+        )
     c = res.verification.comparison
     if c is not None:
         lines.append(
@@ -96,6 +101,13 @@ def check_result(res: SolveRecord) -> int:
         _error(_not_converged(res))
         return FAILED
     c = res.verification.comparison
+    if res.verified is False and c is not None and c.violated:
+        _error(
+            'result NOT verified: time marching violates '
+            + '; '.join(k.describe() for k in c.violated)
+            + ' (collocation holds it at the nodes only): more --segments'
+        )
+        return NOT_VERIFIED
     if res.verified is False and c is not None:
         _error(
             f'result NOT verified: collocation and time marching differ by '
@@ -115,6 +127,8 @@ def _not_converged(res: SolveRecord) -> str:
         f'objective {last.objective if last else nan:.6g}, constraint violation '
         f'{last.constraint_violation if last else nan:.2e}'
     )
+    if res.infeasibility is not None:
+        msg += f'; infeasible: {res.infeasibility.describe()}'
     if best is not None:
         msg += f'; best feasible iterate {best.iteration} f = {best.objective:.6g} at ' + ', '.join(
             f'{k} = {v:.1f}' for k, v in best.design.items()

@@ -126,3 +126,33 @@ def scenario_terms(rec: SolveRecord | None) -> list[tuple[str, dict[str, float] 
     if len(rec.scenarios) <= 1:
         return [('', rec.terms)]
     return [(s.name, s.terms) for s in rec.scenarios]
+
+
+def constraint_table(res: SolveRecord) -> list[str]:
+    """The engineering constraints of a result (``docs/metrics.md``, "Constraints"): each
+    side's bound, its worst value by collocation and by time marching, the margin (the
+    collocation's; negative: violated) and whether the design lies on it. Empty if the
+    study has none."""
+    rows = res.constraint_rows()
+    if not rows:
+        return []
+    lines = [
+        '| constraint | bound | collocation | time marching | margin | active | worst at |',
+        '|---|---|---|---|---|---|---|',
+    ]
+    for v, k in rows:
+        unit = f' {v.units}' if v.units else ''
+        marched = '—' if k is None else fmt(k.value) + (' **violated**' if k.violated else '')
+        lines.append(
+            f'| `{v.name}` | {"≤" if v.upper else "≥"} {v.bound:g}{unit} | {fmt(v.value)} | '
+            f'{marched} | {fmt(v.margin, 3)} | {"**active**" if v.active else "no"} | '
+            f'{v.where or "—"} |'
+        )
+    active = [v.name for v, _ in rows if v.active]
+    lines += [
+        '',
+        'Active constraints: ' + (', '.join(f'`{n}`' for n in active) if active else 'none') + '.',
+    ]
+    if res.infeasibility is not None:
+        lines += ['', f'**Infeasible:** {res.infeasibility.describe()}.']
+    return lines

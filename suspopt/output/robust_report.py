@@ -10,6 +10,7 @@ from suspopt.output.figures import save_figure
 from suspopt.output.format import (
     FIDELITY_LABELS,
     aggregate_formula,
+    constraint_table,
     design_columns,
     obj,
     scales_line,
@@ -77,6 +78,10 @@ def robust_markdown(data: RobustStudy) -> str:
         lines.append(
             f'| {label} | ' + ' | '.join(cells) + f' | {_bold_if(c.aggregate, best_agg)} |'
         )
+    robust = data.optima.get(ROBUST)
+    if robust is not None and robust.constraints:
+        lines += ['', '**Constraints at the robust optimum** (over every scenario)', '']
+        lines += constraint_table(robust)
     if data.wall_time_s is not None:
         lines += ['', f'{len(data.optima)} optimizations: {data.wall_time_s:.1f} s in all.']
     return '\n'.join(lines) + '\n'

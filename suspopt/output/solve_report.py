@@ -9,6 +9,7 @@ from pathlib import Path
 from suspopt.output.figures import plot_set, read_setting, road_figure, save_figure
 from suspopt.output.format import (
     FIDELITY_LABELS,
+    constraint_table,
     design_columns,
     fmt,
     record_scales_line,
@@ -61,6 +62,9 @@ def run_markdown(res: SolveRecord) -> str:
             (f'| {name} ' if several else '') + '| ' + ' | '.join(fmt(J[t], 5) for t in cols) + ' |'
             for name, J in rows
         ]
+    if res.constraints:
+        lines += ['', 'Engineering constraints (collocation: its nodes; time marching: dense):', '']
+        lines += constraint_table(res)
     c = res.verification.comparison
     if c is not None:
         lines += [

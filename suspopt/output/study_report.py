@@ -31,6 +31,7 @@ from suspopt.output.figures import (
     save_figure,
 )
 from suspopt.output.format import (
+    constraint_table,
     design_columns,
     fmt,
     obj,
@@ -69,6 +70,7 @@ def table_markdown(study: TwoStepStudy) -> str:
         '',
         *_terms(study),
         *_agreement(study),
+        *_constraints(study),
         *_statistics(study),
     ]
     if study.wall_time_s is not None:
@@ -173,6 +175,18 @@ def _agreement(study: TwoStepStudy) -> list[str]:
         res = [s.max_constraint_residual_m for s in c.scenarios] if c else []
         worst = max((r for r in res if r is not None), default=None)
         lines.append(f'| {label} | {cells[0]} | {cells[1]} | {fmt(worst, 2)} m |')
+    return lines
+
+
+def _constraints(study: TwoStepStudy) -> list[str]:
+    """The engineering constraints at each design in the model that produced it."""
+    lines = []
+    for name, label in DESIGN_LABELS.items():
+        e = study.evaluation(OWN_MODEL[name], name)
+        if e is None or not e.constraints:
+            continue
+        lines += ['', f'**Constraints: {label}** ({OWN_MODEL[name]} fidelity)', '']
+        lines += constraint_table(e)
     return lines
 
 

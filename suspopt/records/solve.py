@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from suspopt.records.codec import Node, Record
+from suspopt.records.constraints import ConstraintCheck, ConstraintValue, Infeasibility
 from suspopt.records.control import ControlHistory
 from suspopt.records.verification import Check, Verification
 
@@ -120,6 +121,11 @@ class SolveRecord(Record):
     best_feasible_iterate: BestIterate | None = None
     verification: Verification = field(default_factory=Verification.pending)
     max_constraint_residual_m: float | None = None
+    #: every side of every engineering constraint at the solution (collocation; where
+    #: IPOPT stopped if it did not converge); the time marching's are in ``verification``
+    constraints: tuple[ConstraintValue, ...] = ()
+    #: a failed solve with a constraint violated where IPOPT stopped: which, by how much
+    infeasibility: Infeasibility | None = field(default=None, metadata={'omit_none': True})
     #: the study description (plain data) of a run's own file, ``result.json``
     config: dict[str, Any] | None = field(default=None, metadata={'omit_none': True})
     #: the open-loop controls as solved, one per scenario (``docs/codesign.md``; none for
@@ -148,6 +154,13 @@ class SolveRecord(Record):
     @property
     def last_iterate(self) -> Iterate | None:
         return self.history[-1] if self.history else None
+
+    def constraint_rows(self) -> list[tuple[ConstraintValue, ConstraintCheck | None]]:
+        """Every constraint side by collocation, with its time-marching check (None: a
+        design-only constraint, or no comparison)."""
+        c = self.verification.comparison
+        checks = {k.name: k for k in c.constraints} if c is not None else {}
+        return [(v, checks.get(v.name)) for v in self.constraints]
 
     def formula(self) -> str:
         """The objective written out: each ``f_s`` (eq. 4) and how they combine."""
@@ -258,6 +271,9 @@ __all__ = [
     'FEASIBLE',
     'BestIterate',
     'Check',
+    'ConstraintCheck',
+    'ConstraintValue',
+    'Infeasibility',
     'Grid',
     'Iterate',
     'NlpSize',

@@ -7,6 +7,7 @@ import enum
 from dataclasses import dataclass
 
 from suspopt.records.codec import Node, Record
+from suspopt.records.constraints import ConstraintCheck
 
 
 class Check(enum.StrEnum):
@@ -39,7 +40,9 @@ class ScenarioComparison(Record):
 @dataclass(frozen=True)
 class Comparison(Record):
     """Collocation against time marching over every scenario; ``objective`` is the time
-    marching's f (the scenarios combined as the NLP combines them)."""
+    marching's f (the scenarios combined as the NLP combines them). ``constraints``: every
+    path constraint checked along the time-marching trajectories (dense in time, not only
+    at the collocation nodes)."""
 
     method: str
     tolerance: float
@@ -47,10 +50,18 @@ class Comparison(Record):
     objective: float
     max_rel_diff: float
     time_s: float
+    constraints: tuple[ConstraintCheck, ...] = ()
+
+    @property
+    def violated(self) -> tuple[ConstraintCheck, ...]:
+        """The path constraints time marching finds violated beyond their tolerance."""
+        return tuple(c for c in self.constraints if c.violated)
 
     @property
     def agrees(self) -> bool:
-        return bool(self.max_rel_diff <= self.tolerance)
+        """The weighted terms agree within the tolerance and every path constraint holds
+        along the time marching (within its own tolerance)."""
+        return bool(self.max_rel_diff <= self.tolerance) and not self.violated
 
     @property
     def worst(self) -> ScenarioComparison:
@@ -96,7 +107,9 @@ class Verification(Record):
         if self.comparison is not None and self.comparison.agrees != (self.state is Check.VERIFIED):
             raise node.child('state').error(
                 f'{self.state.value!r} contradicts max_rel_diff '
-                f'{self.comparison.max_rel_diff:g} against tolerance {self.comparison.tolerance:g}'
+                f'{self.comparison.max_rel_diff:g} against tolerance '
+                f'{self.comparison.tolerance:g} and {len(self.comparison.violated)} '
+                'violated constraints'
             )
 
     # ------------------------------------------------------------------ the states

@@ -314,7 +314,7 @@ def _constraint_checks(cfg: StudyConfig) -> list[str]:
                     f'constraints.roll_gradient.{name}',
                     f'must be >= 0 deg/g, got {getattr(rg, name):g}',
                 )
-        if rg.max and rg.min > rg.max:
+        if rg.max > 0.0 and rg.min > rg.max:
             errs.add('constraints.roll_gradient.min', f'{rg.min:g} is above max {rg.max:g}')
         if not (rg.min or rg.max or rg.front_share):
             errs.add('constraints.roll_gradient', 'give min, max [deg/g] and/or front_share')

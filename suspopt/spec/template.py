@@ -51,7 +51,10 @@ def default_config_toml(model: str = 'half_car') -> str:
         f'chassis_pitch_inertia = {tv(v.chassis_pitch_inertia)} # I [kg m^2]',
     ]
     if full:
-        lines.append(f'chassis_roll_inertia = {tv(v.chassis_roll_inertia)}  # I_x [kg m^2]')
+        lines += [
+            f'chassis_roll_inertia = {tv(v.chassis_roll_inertia)}  # I_x [kg m^2]',
+            f'cg_height = {tv(v.cg_height)}          # CG above the ground [m] (roll gradient)',
+        ]
     for axle, ax, sign in (('front', v.front, 'ahead of'), ('rear', v.rear, 'behind')):
         lines += [
             '',
@@ -65,6 +68,7 @@ def default_config_toml(model: str = 'half_car') -> str:
             lines += [
                 f'track = {tv(ax.track)}          # wheel track [m]',
                 f'anti_roll_bar = {tv(ax.anti_roll_bar)}     # its rate k_R is designed',
+                f'roll_centre_height = {tv(ax.roll_centre_height)}  # above the ground [m]',
             ]
     lines += [
         '',
@@ -128,6 +132,8 @@ def default_config_toml(model: str = 'half_car') -> str:
     lines += [f'{k} = {tv(w)}' for k, w in o.weights.items()]
     lines += [
         '',
+        *_comfort_lines(c),
+        *_constraint_lines(c),
         '[transcription]                # Dymos Radau collocation',
         f'segments = {tv(t.segments)}               # a number, or "auto" (from the '
         'horizon, wheel hop and road)',
@@ -156,3 +162,60 @@ def default_config_toml(model: str = 'half_car') -> str:
         '',
     ]
     return '\n'.join(lines)
+
+
+def _comfort_lines(c: StudyConfig) -> list[str]:
+    """The seats where ride comfort is measured (ISO 2631-1 Wk; terms comfort_<seat>)."""
+    tv = toml_value
+    lines = ['[comfort]                      # seats: the terms comfort_<name> (ISO 2631-1 Wk)']
+    if not c.comfort.seats:
+        return lines + [
+            'seats = []                     # e.g. [{ name = "driver", x = 0.3, y = 0.37 }]',
+            '',
+        ]
+    lines.append('seats = [')
+    lines += [
+        f'  {{ name = {tv(s.name)}, x = {tv(s.x)}, y = {tv(s.y)} }},' for s in c.comfort.seats
+    ]
+    lines[-1] += '  # x ahead of, y left of the CG [m]'
+    return lines + [']', '']
+
+
+def _constraint_lines(c: StudyConfig) -> list[str]:
+    """The engineering constraints (docs/metrics.md): each applies when its table is
+    given; the others are shown commented out."""
+    tv = toml_value
+    k = c.constraints
+    tables = {
+        'travel': (
+            k.travel.enabled,
+            [f'bump = {tv(k.travel.bump or 0.08)}', f'rebound = {tv(k.travel.rebound or 0.08)}'],
+            'suspension travel from static [m] (0: that side free), every node',
+        ),
+        'tyre_contact': (
+            k.tyre_contact.enabled,
+            [f'margin = {tv(k.tyre_contact.margin)}'],
+            'share of the static load every tyre keeps, every node',
+        ),
+        'roll_gradient': (
+            k.roll_gradient.enabled,
+            [f'max = {tv(k.roll_gradient.max or 4.0)}']
+            + ([f'min = {tv(k.roll_gradient.min)}'] if k.roll_gradient.min else [])
+            + [f'front_share = {tv(list(k.roll_gradient.front_share) or [0.5, 0.75])}'],
+            'full car: roll per g [deg/g]; front share of the roll stiffness',
+        ),
+        'ride_frequency': (
+            k.ride_frequency.enabled,
+            [
+                f'heave = {tv(list(k.ride_frequency.heave) or [1.0, 1.5])}',
+                f'pitch = {tv(list(k.ride_frequency.pitch) or [1.0, 1.8])}',
+            ],
+            'undamped frequencies of the sprung mass [Hz], [lower, upper]',
+        ),
+    }
+    lines = ['# engineering constraints (docs/metrics.md): each applies when its table is given']
+    for name, (on, body, what) in tables.items():
+        mark = '' if on else '# '
+        lines.append(f'{mark}[constraints.{name}]'.ljust(31) + f'# {what}')
+        lines += [f'{mark}{line}' for line in body]
+    return lines + ['']

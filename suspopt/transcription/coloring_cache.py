@@ -37,6 +37,7 @@ from suspopt.driver.hessian import HessianStructure
 from suspopt.driver.sparsity import Coloring
 from suspopt.spec.hardware import curves_structure
 from suspopt.spec.schema import StudyConfig
+from suspopt.transcription.constraints import structure as constraint_structure
 
 _MODEL_SOURCES = (
     'models',
@@ -93,11 +94,8 @@ def coloring_key(config: StudyConfig, fidelity: str) -> str:
             bool(config.control.force_max),
             bool(config.control.power_max),
         ],
-        'travel': [
-            config.constraints.travel.enabled,
-            config.constraints.travel.bump > 0.0,
-            config.constraints.travel.rebound > 0.0,
-        ],
+        'seats': len(config.comfort.seats),
+        'constraints': constraint_structure(config),
         'versions': [openmdao.__version__, dymos.__version__],
         'source': source_digest(),
     }

@@ -13,14 +13,13 @@ from suspopt.spec.resolve import Scenario
 def build_phase(
     assembly: VehicleAssembly,
     scenario: Scenario,
-    travel: tuple[float, float] | None = None,
 ) -> dm.Phase:
     """A Dymos Radau phase of the vehicle's ODE over the scenario's horizon, from the zero
     initial state (``docs/model.md``), with the design variables as its (static)
     parameters, the assembly's open-loop controls as Dymos controls and its path bounds
     as path constraints (``docs/codesign.md``), and the assembly's signals recorded along
-    the trajectory. ``travel``: (rebound, bump) travel [m], the suspension travel within
-    ``[-rebound, bump]`` at every node (0: that side unbounded)."""
+    the trajectory (the engineering constraints on it: :mod:`suspopt.transcription.
+    constraints`)."""
     phase = dm.Phase(
         ode_class=VehicleODE,
         ode_init_kwargs={'assembly': assembly},
@@ -73,14 +72,6 @@ def build_phase(
         )
     for bound in assembly.path_bounds:
         phase.add_path_constraint(bound.signal, lower=bound.lower, upper=bound.upper, ref=bound.ref)
-    if travel is not None and (travel[0] > 0.0 or travel[1] > 0.0):
-        rebound, bump = travel
-        phase.add_path_constraint(
-            'travel',
-            lower=-rebound if rebound > 0.0 else None,
-            upper=bump if bump > 0.0 else None,
-            ref=max(rebound, bump),
-        )
     for name in assembly.timeseries:
         phase.add_timeseries_output(name)
     return phase

@@ -44,6 +44,7 @@ from suspopt.models.objective import (
     WeightedObjectiveComp,
     WorstCaseGapComp,
 )
+from suspopt.records.constraints import ConstraintValue
 from suspopt.records.control import ControlHistory
 from suspopt.records.solve import (
     Grid,
@@ -55,6 +56,15 @@ from suspopt.records.solve import (
 )
 from suspopt.records.trajectory import Trajectory
 from suspopt.spec.schema import HESSIANS, StudyConfig
+from suspopt.transcription.constraints import (
+    GROUP,
+    Worst,
+    add_design_constraints,
+    add_path_constraints,
+    bounds,
+    path_constraints,
+    worst_on_path,
+)
 from suspopt.transcription.grid import radau_grid, radau_quadrature_weights
 from suspopt.transcription.phase import build_phase
 from suspopt.transcription.vehicle import multibody_modules, vehicle_assembly
@@ -80,12 +90,6 @@ AUTO_EXACT_MIN_SEGMENTS = 200
 #: dual infeasibility, which then stalls there at the optimum rather than reach ``tol``
 #: (``docs/codesign.md``)
 MIXED_CONTROL_SETTINGS = {'acceptable_tol': 1e-5, 'acceptable_iter': 5}
-
-
-def travel_limits(config: StudyConfig) -> tuple[float, float] | None:
-    """(rebound, bump) of ``[constraints.travel]``, or None (no travel constraint)."""
-    t = config.constraints.travel
-    return (t.rebound, t.bump) if t.enabled else None
 
 
 def auto_hessian(config: StudyConfig, fidelity: str, optimize_design: bool = True) -> str:
@@ -177,9 +181,10 @@ class VehicleProblem:
             p = self.problem = om.Problem(reports=False, work_dir=self._work_dir)
             traj = self.traj = p.model.add_subsystem('traj', dm.Trajectory())
             self.phases, self.assemblies, self._quadrature = [], [], []
+            path = path_constraints(config)
             for i, sc in enumerate(self.scenarios):
                 assembly = vehicle_assembly(config, sc, fidelity, self.modules)
-                phase = traj.add_phase(f's{i}', build_phase(assembly, sc, travel_limits(config)))
+                phase = traj.add_phase(f's{i}', build_phase(assembly, sc))
                 self.phases.append(phase)
                 self.assemblies.append(assembly)
                 self._quadrature.append(radau_quadrature_weights(sc.segments, sc.order, sc.horizon))
@@ -197,6 +202,10 @@ class VehicleProblem:
                     ref=dv.lower + span,
                     static_target=True,
                 )
+            for i, sc in enumerate(self.scenarios):
+                add_path_constraints(p.model, f'traj.s{i}.rhs_all', path, sc, config.layout().n)
+            add_design_constraints(p.model, config, fidelity, self.modules)
+            self.bounds = bounds(config)
             for i in range(len(self.scenarios)):
                 p.model.add_subsystem(
                     f'quadrature_{i}',
@@ -401,6 +410,41 @@ class VehicleProblem:
             return max(f)
         return float(sum(sc.weight * fi for sc, fi in zip(self.scenarios, f)))
 
+    def constraint_values(self) -> tuple[ConstraintValue, ...]:
+        """Every side of every engineering constraint at the current solution: a path
+        constraint at its worst over the nodes, corners and scenarios, a design-only one
+        at its value."""
+        p = self.problem
+        labels = self.config.layout().labels
+        out = []
+        for b in self.bounds:
+            if b.kind == 'path':
+                ts = [
+                    (
+                        sc.name,
+                        p.get_val(f'traj.s{i}.timeseries.time')[:, 0],
+                        p.get_val(f'traj.s{i}.timeseries.{b.signal}'),
+                    )
+                    for i, sc in enumerate(self.scenarios)
+                ]
+                worst = worst_on_path(b, ts, labels)
+                assert worst is not None
+            else:
+                worst = Worst(float(b.quantity(p.get_val(f'{GROUP}.{b.signal}'))[0]))
+            out.append(
+                ConstraintValue(
+                    name=b.name,
+                    kind=b.kind,
+                    units=b.units,
+                    upper=b.upper,
+                    bound=b.bound,
+                    value=worst.value,
+                    active=b.active(worst.value),
+                    where=worst.where,
+                )
+            )
+        return tuple(out)
+
     def timeseries(self, scenario: int = 0) -> Trajectory:
         """The collocation solution of one scenario at its nodes."""
         p, assembly = self.problem, self.assemblies[scenario]
@@ -527,6 +571,7 @@ class VehicleProblem:
             history=history,
             best_feasible_iterate=best_feasible(history, designs),
             controls=self.control_histories(),
+            constraints=self.constraint_values(),
         )
 
     def _scenario_result(self, i: int, success: bool) -> ScenarioResult:

@@ -12,15 +12,18 @@ import functools
 import math
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from suspopt.errors import ModelError
+from suspopt.records.constraints import ConstraintCheck, Infeasibility
 from suspopt.records.control import ControlHistory
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
 from suspopt.records.verification import Comparison, ScenarioComparison, Verification
 from suspopt.spec import StudyConfig
+from suspopt.transcription.constraints import ACTIVE_RTOL, Bound, Worst, bounds, worst_on_path
 from suspopt.transcription.problem import Scales
 from suspopt.verification.background import Background
 from suspopt.verification.timemarching import simulate
@@ -44,6 +47,19 @@ def method_of(integrators: Iterable[str]) -> str:
     return f'{METHOD} ({"; ".join(used)})' if used else METHOD
 
 
+#: a path constraint is checked along the time-marching trajectory sampled this finely
+#: [s]: a peak between two samples is missed by at most ``1 - cos(π f Δt)`` of its
+#: amplitude, 0.1 % for a 15 Hz wheel hop
+CONSTRAINT_SAMPLING_S = 1e-3
+#: a path constraint holds by time marching if its worst value exceeds the bound by at
+#: most this share of the bound (the allowed excursion of its signal: the bump or rebound
+#: travel, the tyre's allowed unloading ``1 - margin``) ...
+CONSTRAINT_RTOL = 0.03
+#: ... or by this much in the signal's units (a bound near zero): 0.5 mm of travel, 0.5 %
+#: of the static tyre load
+CONSTRAINT_ATOL = {'travel': 5e-4, 'tyre_load_ratio': 5e-3}
+
+
 def objective_value(
     config: StudyConfig, terms: dict[str, float], scales: dict[str, float]
 ) -> float:
@@ -59,10 +75,25 @@ def combine(config: StudyConfig, scenario_objectives: list[float]) -> float:
     return float(sum(sc.weight * f for sc, f in zip(config.scenarios(), scenario_objectives)))
 
 
+def constraint_tolerance(bound: Bound) -> float:
+    """How far time marching may find path constraint ``bound`` exceeded and still hold
+    (:data:`CONSTRAINT_RTOL`, :data:`CONSTRAINT_ATOL`): the collocation holds it at the
+    nodes only, and between them a peak of the wheel hop (``NODES_PER_PERIOD`` nodes per
+    period of the automatic grid) can rise a few per cent above the nodes' samples."""
+    allowed = abs(bound.bound - bound.offset)  # the bound on the signal itself
+    return max(CONSTRAINT_RTOL * allowed, CONSTRAINT_ATOL.get(bound.signal, 0.0))
+
+
+def dense_times(horizon: float) -> np.ndarray:
+    """The times a trajectory is sampled at to check the path constraints."""
+    return np.linspace(0.0, horizon, max(2001, int(np.ceil(horizon / CONSTRAINT_SAMPLING_S)) + 1))
+
+
 @dataclass(frozen=True)
 class Marched:
     """One scenario marched in time: its terms, ``f_s``, cost and (mixed fidelity) the
-    largest constraint residual of the linkages; the trajectory if it was kept."""
+    largest constraint residual of the linkages; the worst value of every path
+    constraint (by name) along the dense trajectory; the trajectory if it was kept."""
 
     name: str
     terms: dict[str, float]
@@ -71,6 +102,7 @@ class Marched:
     max_constraint_residual_m: float | None
     trajectory: Trajectory | None
     integrator: str = ''
+    worst: dict[str, Worst] = field(default_factory=dict)
 
 
 def march(
@@ -84,10 +116,14 @@ def march(
     controls: tuple[ControlHistory, ...] = (),
 ) -> list[Marched]:
     """Every scenario of ``design`` marched at the verification's tolerances, with its
-    open-loop ``controls`` (``docs/codesign.md``); with ``keep``, each trajectory (2001
-    points) is kept."""
+    open-loop ``controls`` (``docs/codesign.md``), its path constraints checked along a
+    trajectory sampled every :data:`CONSTRAINT_SAMPLING_S`; with ``keep``, each trajectory
+    (at least 2001 points) is kept."""
     out = []
+    path = [b for b in bounds(config) if b.kind == 'path']
+    labels = config.layout().labels
     for i, sc in enumerate(config.scenarios()):
+        dense = dense_times(sc.horizon) if path else None
         tr = simulate(
             config,
             fidelity,
@@ -96,9 +132,14 @@ def march(
             modules=modules,
             rtol=VERIFY_RTOL,
             atol=VERIFY_ATOL,
-            t_eval=None if keep else np.array([0.0, sc.horizon]),
+            t_eval=dense if path else None if keep else np.array([0.0, sc.horizon]),
             controls=tuple(c for c in controls if c.scenario == sc.name),
         )
+        worst = {}
+        for b in path:
+            w = worst_on_path(b, [(sc.name, tr.t, tr[b.signal])], labels)
+            if w is not None:
+                worst[b.name] = w
         terms = dict(zip(config.terms(), (float(x) for x in tr.J)))
         out.append(
             Marched(
@@ -111,6 +152,7 @@ def march(
                 else None,
                 trajectory=tr if keep else None,
                 integrator=str(tr.info.get('integrator', '')),
+                worst=worst,
             )
         )
     return out
@@ -144,7 +186,9 @@ def time_marching_check(
     """Time-march ``design`` (and its open-loop ``controls``) in every scenario and
     compare with the collocation's ``terms``: verified if every term with a nonzero weight
     agrees within :data:`VERIFY_TOLERANCE` (relative to its time-marched value, at least
-    :data:`VERIFY_FLOOR` of its scale). With ``keep``, the trajectories come too."""
+    :data:`VERIFY_FLOOR` of its scale) and every path constraint holds along the dense
+    time-marching trajectories (:func:`constraint_tolerance`). With ``keep``, the
+    trajectories come too."""
     t0 = time.perf_counter()
     weights = config.objective.weights
     marched = march(config, fidelity, design, scales, modules=modules, keep=keep, controls=controls)
@@ -174,8 +218,68 @@ def time_marching_check(
         objective=combine(config, [s.objective for s in scenarios]),
         max_rel_diff=max([0.0] + [s.max_rel_diff for s in scenarios]),
         time_s=time.perf_counter() - t0,
+        constraints=constraint_checks(config, marched),
     )
     return comparison, [m.trajectory for m in marched if m.trajectory is not None]
+
+
+def constraint_checks(config: StudyConfig, marched: list[Marched]) -> tuple[ConstraintCheck, ...]:
+    """Every path constraint at its worst over the scenarios' time-marching trajectories."""
+    out = []
+    for b in bounds(config):
+        found = [m.worst[b.name] for m in marched if b.name in m.worst]
+        if b.kind != 'path' or not found:
+            continue
+        w = min(found, key=lambda x: b.margin(x.value))
+        out.append(
+            ConstraintCheck(
+                name=b.name,
+                upper=b.upper,
+                bound=b.bound,
+                value=w.value,
+                tolerance=constraint_tolerance(b),
+                where=w.where,
+            )
+        )
+    return tuple(out)
+
+
+def infeasibility(
+    config: StudyConfig,
+    record: SolveRecord,
+    scales: Scales,
+    modules: dict | None = None,
+) -> Infeasibility | None:
+    """The constraint a failed solve violates most (relative to its scale) at the design
+    where IPOPT stopped, or None if it meets every one there: a path constraint by time
+    marching that design (the unconverged collocation's signals are not the dynamics'),
+    beyond :func:`constraint_tolerance`; a design-only one at its exact value."""
+    if record.success or not record.constraints:
+        return None
+    by_name = {b.name: b for b in bounds(config)}
+    found: list[tuple[float, Infeasibility]] = []
+    if any(b.kind == 'path' for b in by_name.values()):
+        try:
+            marched = march(config, record.fidelity, record.design, scales, modules=modules)
+        except ModelError:  # the design cannot be marched: only the design-only ones
+            marched = []
+        for k in constraint_checks(config, marched):
+            if k.violated:
+                found.append(
+                    (
+                        -k.margin / by_name[k.name].scale,
+                        Infeasibility(
+                            k.name, by_name[k.name].units, k.upper, k.bound, k.value, k.where
+                        ),
+                    )
+                )
+    for v in record.constraints:
+        scale = by_name[v.name].scale if v.name in by_name else abs(v.bound) or 1.0
+        if v.kind == 'design' and v.margin < -ACTIVE_RTOL * scale:
+            found.append(
+                (-v.margin / scale, Infeasibility(v.name, v.units, v.upper, v.bound, v.value))
+            )
+    return max(found, key=lambda x: x[0])[1] if found else None
 
 
 def verify(
@@ -189,7 +293,8 @@ def verify(
     """``record`` with its verification: time marching compared with its terms (a failed
     solve has nothing to verify). With ``keep``, the time-marched trajectories come too."""
     if not record.success:
-        return record.with_verification(
+        failed = replace(record, infeasibility=infeasibility(config, record, scales, modules))
+        return failed.with_verification(
             Verification.not_applicable('not verified: the solve failed')
         ), []
     comparison, trajectories = time_marching_check(

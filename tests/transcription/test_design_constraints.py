@@ -1,0 +1,102 @@
+"""The design-only constraints as the NLP sees them: the group of design metrics fed by
+the design variables (values from the pure equations, total derivatives against finite
+differences), and the NLP's constraints named after the study file's keys."""
+
+from __future__ import annotations
+
+import numpy as np
+import openmdao.api as om
+import pytest
+
+from suspopt.models.design import DESIGN_UNITS, design_kind
+from suspopt.models.design_metrics import axle_roll_stiffness, ride_modes, roll_gradient
+from suspopt.spec.load import config_from_dict
+from suspopt.transcription.constraints import (
+    DesignMetricsGroup,
+    bounds,
+    roll_arm,
+    wheel_rates,
+)
+
+CFG = config_from_dict(
+    {
+        'vehicle': {'model': 'full_car'},
+        'constraints': {
+            'roll_gradient': {'max': 4.0, 'front_share': [0.5, 0.8]},
+            'ride_frequency': {'heave': [0.8, 1.6], 'pitch': [0.8, 2.0]},
+        },
+    }
+)
+DESIGN = {'k_S1': 31000.0, 'k_S2': 35000.0, 'c_S1': 3000.0, 'c_S2': 3500.0}
+DESIGN |= {'k_R1': 60000.0, 'k_R2': 9000.0}
+
+
+@pytest.fixture(scope='module')
+def group_problem():
+    p = om.Problem(reports=False)
+    ivc = p.model.add_subsystem('design', om.IndepVarComp(), promotes=['*'])
+    for n in CFG.design_names():
+        ivc.add_output(n, DESIGN[n], units=DESIGN_UNITS[design_kind(n)])
+    p.model.add_subsystem(
+        'metrics',
+        DesignMetricsGroup(config=CFG, rates=wheel_rates(CFG, 'low', {})),
+        promotes_inputs=['*'],
+    )
+    p.setup(force_alloc_complex=True)
+    p.run_model()
+    return p
+
+
+def test_values_are_the_equations(group_problem):
+    p, v, lay = group_problem, CFG.vehicle, CFG.layout()
+    k_W = np.array([DESIGN[f'k_S{c.axle + 1}'] for c in lay.corners])
+    k_T = np.array([v.axles[c.axle].tyre_stiffness for c in lay.corners])
+    axle = [c.axle for c in lay.corners]
+    K = axle_roll_stiffness(k_W, [DESIGN['k_R1'], DESIGN['k_R2']], k_T, lay.y, axle, [0, 1])
+    phi = roll_gradient(K, v.chassis_mass, roll_arm(CFG))
+    assert p.get_val('metrics.roll_gradient')[0] == pytest.approx(float(phi), rel=1e-12)
+    assert p.get_val('metrics.front_share')[0] == pytest.approx(K[0] / K.sum(), rel=1e-12)
+    k_ride = k_W * k_T / (k_W + k_T)
+    f = ride_modes(k_ride, lay.a, v.chassis_mass, v.chassis_pitch_inertia, True)[0]
+    got = [p.get_val('metrics.f_heave')[0], p.get_val('metrics.f_pitch')[0]]
+    assert got == pytest.approx(list(f), rel=1e-12)
+
+
+def test_total_derivatives(group_problem):
+    of = [f'metrics.{n}' for n in ('roll_gradient', 'front_share', 'f_heave', 'f_pitch')]
+    data = group_problem.check_totals(
+        of=of, wrt=list(CFG.design_names()), method='fd', form='central', step=1e-5,
+        step_calc='rel_avg', out_stream=None,
+    )  # fmt: skip
+    # (not complex step: numpy's eigh takes a complex matrix as Hermitian)
+    assert len(data) == len(of) * len(CFG.design_names())
+    for key, d in data.items():  # compared here: assert_check_totals let a sign slip by
+        analytic = d['J_fwd'] if d.get('J_fwd') is not None else d['J_rev']
+        np.testing.assert_allclose(analytic, d['J_fd'], rtol=1e-6, atol=1e-14, err_msg=str(key))
+
+
+def test_every_side_is_a_named_bound():
+    assert [b.name for b in bounds(CFG) if b.kind == 'design'] == [
+        'roll_gradient.max',
+        'roll_gradient.front_share.min',
+        'roll_gradient.front_share.max',
+        'ride_frequency.heave.min',
+        'ride_frequency.heave.max',
+        'ride_frequency.pitch.min',
+        'ride_frequency.pitch.max',
+    ]
+
+
+def test_mixed_fidelity_wheel_rates_are_the_linkages():
+    """In the mixed model the wheel rate is each axle's linkage at its reference pose,
+    ``a k_S + b``; the design metrics then see the linkage's rate, not ``k_S``."""
+    from suspopt.multibody.kinematics import reference_wheel_rate
+    from suspopt.transcription.vehicle import multibody_modules
+
+    modules = multibody_modules(CFG)
+    rates = wheel_rates(CFG, 'mixed', modules)
+    for i, c in enumerate(CFG.layout().corners):
+        m = modules[CFG.vehicle.axles[c.axle].mechanism]
+        a, b, _ = reference_wheel_rate(getattr(m, 'base_mechanism', m))
+        assert (rates.slope[i], rates.offset[i]) == pytest.approx((a, b), rel=1e-12)
+    assert not np.allclose(rates.slope, 1.0)  # the linkages' motion ratios are not 1
