@@ -157,8 +157,7 @@ def _comfort_lines(c: StudyConfig) -> list[str]:
         ]
     lines.append('seats = [')
     lines += [
-        f'  {{ name = {tv(s.name)}, x = {tv(s.x)}, y = {tv(s.y)} }},'
-        for s in c.comfort.seats
+        f'  {{ name = {tv(s.name)}, x = {tv(s.x)}, y = {tv(s.y)} }},' for s in c.comfort.seats
     ]
     lines[-1] += '  # x ahead of, y left of the CG [m]'
     return lines + [']', '']
