@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from suspopt.records.codesign import CodesignStudy
 from suspopt.records.compare import (
     CompareStudy,
     Failure,
@@ -316,3 +317,17 @@ DOCUMENT_SAMPLES = {
     'coupling': coupling,
     'spectral': spectral,
 }
+
+
+def codesign() -> CodesignStudy:
+    """A co-design study (a record of the Python API; no command writes it)."""
+    return CodesignStudy(
+        fidelity='low',
+        kind='active',
+        entries={'passive': solve(), 'open_loop': solve(), 'feedback': solve(success=False)},
+        wall_time_s=12.5,
+    )
+
+
+#: records of the Python API only (no document kind): their round trip is tested too
+API_SAMPLES = {'codesign': codesign}

@@ -536,11 +536,15 @@ class ComfortConfig:
     seats: tuple[Seat, ...] = ()
 
 
+#: the meaning of every constraint's ``enabled`` key
+_ENABLED = "true when its table is given; false turns off a default car's constraint"
+
+
 @dataclass(frozen=True)
 class TravelConstraint:
     """The suspension travel (wheel relative to the body) within the stops, every node."""
 
-    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    enabled: bool = field(default=False, metadata={'doc': _ENABLED})
     bump: float = field(
         default=0.0,
         metadata=_plausible(0.0, 1.0, 'm', 'a suspension travel', doc='bump travel [m]'),
@@ -555,7 +559,7 @@ class TravelConstraint:
 class TyreContactConstraint:
     """The tyre keeps at least ``margin`` of its static load, every node (no lift-off)."""
 
-    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    enabled: bool = field(default=False, metadata={'doc': _ENABLED})
     margin: float = field(default=0.1, metadata={'doc': 'share of the static load kept'})
 
 
@@ -564,7 +568,7 @@ class RollGradientConstraint:
     """The steady-state roll per g of lateral acceleration within [min, max] deg/g, and the
     front axle's share of the roll stiffness within ``front_share`` (full car)."""
 
-    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    enabled: bool = field(default=False, metadata={'doc': _ENABLED})
     min: float = field(default=0.0, metadata={'doc': 'lower bound [deg/g] (0: none)'})
     max: float = field(default=0.0, metadata={'doc': 'upper bound [deg/g] (0: none)'})
     front_share: tuple[float, ...] = field(
@@ -576,7 +580,7 @@ class RollGradientConstraint:
 class RideFrequencyConstraint:
     """The undamped heave and pitch frequencies of the sprung mass within bands [Hz]."""
 
-    enabled: bool = field(default=False, metadata={'doc': "set by the table's presence"})
+    enabled: bool = field(default=False, metadata={'doc': _ENABLED})
     heave: tuple[float, ...] = field(default=(), metadata={'doc': '[lower, upper] [Hz]'})
     pitch: tuple[float, ...] = field(default=(), metadata={'doc': '[lower, upper] [Hz]'})
 

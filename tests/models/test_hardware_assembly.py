@@ -213,7 +213,7 @@ def test_a_damper_curve_with_equal_slopes_marches_as_the_linear_damper(per_corne
     lin = config_from_dict(d)
     d['vehicle']['front']['damper_curve'] = curve(c1)
     d['vehicle']['rear']['damper_curve'] = curve(c2)
-    d['vehicle']['rear']['bump_stop'] = {'gap': 0.09, 'coefficients': [1.0e7]}
+    d['vehicle']['rear']['bump_stop'] = {'gap': 0.048, 'coefficients': [1.0e7]}
     d['design'] = {'per_corner': per_corner, 'c_rebound_low_2': {}, 'bump_gap_2': {}}
     hw = config_from_dict(d)
     assert 'c_S1' not in hw.design_names()

@@ -83,9 +83,9 @@ def test_curve_parameters_become_design_variables_when_named():
     dv = cfg.design['c_rebound_low_1']
     assert (dv.initial, dv.lower, dv.upper) == (7000.0, 3000.0, 9000.0)
     # defaults: the hardware's value, from 0 to 4 times it within the bump travel (the
-    # front MacPherson's, 0.1 m)
+    # default full car's travel constraint, 0.05 m)
     gap = cfg.design['bump_gap_1']
-    assert (gap.initial, gap.lower, gap.upper) == (0.03, 0.0, 0.1)
+    assert (gap.initial, gap.lower, gap.upper) == (0.03, 0.0, 0.05)
     per_corner = _full_car(
         {'damper_curve': DIGRESSIVE},
         {'per_corner': True, 'c_bump_low_1': {'upper': 5000.0}, 'v_bump_knee_1R': {}},

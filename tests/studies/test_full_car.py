@@ -41,7 +41,11 @@ def reduced_full_car(cfg):
             'maneuver': {'speed': cfg.maneuver.speed, 'horizon': cfg.maneuver.horizon},
             'road': cfg.road,
             'transcription': {'segments': cfg.transcription.segments},
-            'objective': {
+            'constraints': {  # the default full car's engineering constraints, off
+                name: {'enabled': False} for name in ('travel', 'tyre_contact', 'roll_gradient')
+            },
+            'objective': {  # the paper's (the default full car's is comfort and road holding)
+                'weights': {'heave': 1 / 6, 'pitch': 1 / 6, 'roll': 1 / 6, 'wheel': 0.5},
                 'normalization': 'custom',
                 'scales': dict.fromkeys(
                     ('heave', 'pitch', 'roll', 'wheel_1L', 'wheel_1R', 'wheel_2L', 'wheel_2R'), 1.0

@@ -106,7 +106,12 @@ def test_scenarios_combine_as_in_the_time_domain():
 
 # ---------------------------------------------------------------------------- refused
 def test_a_weighted_wheel_displacement_is_refused_in_one_line():
-    cfg = config_from_dict({'vehicle': {'model': 'full_car'}})  # the paper's weights
+    cfg = config_from_dict(  # the paper's weights
+        {
+            'vehicle': {'model': 'full_car'},
+            'objective': {'weights': {'heave': 1 / 6, 'pitch': 1 / 6, 'roll': 1 / 6, 'wheel': 0.5}},
+        }
+    )
     with pytest.raises(ConfigError) as err:
         evaluate_spectral(cfg)
     (line,) = err.value.problems

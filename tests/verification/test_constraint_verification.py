@@ -76,7 +76,7 @@ def _marched(worst_bump: float) -> list[Marched]:
     b = _bound('travel.bump')
     w = worst_on_path(b, [('main', T, TRAVEL * worst_bump / 0.03)], ['1', '2'])
     assert w is not None
-    return [Marched('main', {}, 1.0, 0.1, None, None, {'travel.bump': w})]
+    return [Marched('main', {}, 1.0, 0.1, None, None, worst={'travel.bump': w})]
 
 
 def _comparison(worst_bump: float) -> Comparison:
