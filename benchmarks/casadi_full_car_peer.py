@@ -60,6 +60,8 @@ import dataclasses
 import statistics
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -204,6 +206,8 @@ class PeerResult:
     build_s: float
     solve_s: float
     solve_cpu_s: float
+    eval_cpu_s: float  # in IPOPT's calls of f, g, ∇f and the Jacobian (CasADi's t_proc)
+    hess_cpu_s: float  # in its calls of the Hessian of the Lagrangian
 
 
 def solve_peer(
@@ -248,6 +252,10 @@ def solve_peer(
         build_s=build,
         solve_s=solve,
         solve_cpu_s=cpu,
+        eval_cpu_s=float(
+            sum(st.get(f't_proc_nlp_{k}', 0.0) for k in ('f', 'g', 'grad_f', 'jac_g'))
+        ),
+        hess_cpu_s=float(st.get('t_proc_nlp_hess_l', 0.0)),
     )
 
 
@@ -313,6 +321,8 @@ class Run:
     setup_s: float  # the peer's NLP build; suspopt's problem setup + starting trajectory
     solve_s: float
     solve_cpu_s: float
+    eval_cpu_s: float  # CPU time in IPOPT's calls of f, g, ∇f and the Jacobian
+    hess_cpu_s: float  # in its calls of the Hessian
     design: dict[str, float]
 
 
@@ -329,6 +339,8 @@ def peer_run(car: str, who: str, solve: Any, hessian: str) -> Run:
             r.build_s,
             r.solve_s,
             r.solve_cpu_s,
+            r.eval_cpu_s,
+            r.hess_cpu_s,
             r.design,
         )
     return Run(  # casadi_peer.solve_peer's dict (the half car)
@@ -341,12 +353,46 @@ def peer_run(car: str, who: str, solve: Any, hessian: str) -> Run:
         r['build_time_s'],
         r['solve_time_s'],
         r['solve_cpu_s'],
+        r['eval_cpu_s'],
+        r['hess_cpu_s'],
         r['design'],
     )
 
 
+@contextmanager
+def callback_clock() -> Iterator[dict[str, float]]:
+    """CPU time spent in the IPOPT callbacks of suspopt's driver while inside: ``eval``
+    (objective, constraints, gradient, Jacobian) and ``hess`` (the Hessian), by wrapping
+    the driver's methods (a few hundred calls per solve: the clock costs nothing)."""
+    from suspopt.driver.ipopt import IpoptDriver
+
+    spent = {'eval': 0.0, 'hess': 0.0}
+    names = {'objective': 'eval', 'constraints': 'eval', 'gradient': 'eval'}
+    names |= {'jacobian': 'eval', 'hessian': 'hess'}
+    saved = {n: getattr(IpoptDriver, n) for n in names}
+
+    def clocked(fn: Any, kind: str) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            c0 = time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[kind] += time.process_time() - c0
+
+        return call
+
+    for n, kind in names.items():
+        setattr(IpoptDriver, n, clocked(saved[n], kind))
+    try:
+        yield spent
+    finally:
+        for n, fn in saved.items():
+            setattr(IpoptDriver, n, fn)
+
+
 def suspopt_run(car: str, cfg: StudyConfig, scales: Any, hessian: str) -> Run:
-    r = timed_optimize(cfg, 'low', scales, cfg.design.initial(), hessian=hessian)
+    with callback_clock() as spent:
+        r = timed_optimize(cfg, 'low', scales, cfg.design.initial(), hessian=hessian)
     r.pop('problem').cleanup()
     return Run(
         car,
@@ -358,6 +404,8 @@ def suspopt_run(car: str, cfg: StudyConfig, scales: Any, hessian: str) -> Run:
         r['setup'] + r['guess'],
         r['solve'],
         r['solve_cpu'],
+        spent['eval'],
+        spent['hess'],
         r['design'],
     )
 
@@ -497,6 +545,51 @@ def tables(
                 f'| {1e3 * cpu / max(last.iterations, 1):.0f} | **{cpu / ref:.2f}** '
                 + (f'| **{cpu / ref_sx:.2f}** |' if ref_sx else '| — |')
             )
+    md += [
+        '',
+        "Where each solve's CPU time goes (medians): in IPOPT's calls of the model (f, "
+        'constraints, their gradient and Jacobian), of the Hessian of the Lagrangian, and '
+        "in IPOPT itself (the rest: the KKT factorizations by MUMPS, L-BFGS' updates, "
+        "the driver's own bookkeeping outside the callbacks, "
+        "line search), per iteration. The peer's from CasADi's own `t_proc_*` statistics, "
+        "suspopt's by a CPU clock around its driver's callbacks.",
+        '',
+        '| car | solver | Hessian | iterations | model calls [ms/it] | Hessian [ms/it] | '
+        'IPOPT itself [ms/it] | all [ms/it] |',
+        '|---|---|---|---|---|---|---|---|',
+    ]
+    summary = []
+    for car, *_ in cases:
+        best: dict[str, tuple[float, Run, float]] = {}
+        for w, h in solvers:
+            rs = [r for r in runs if (r.car, r.solver, r.hessian) == (car, w, h)]
+            if not rs:
+                continue
+            it = max(rs[-1].iterations, 1)
+            cpu, ev, he = (
+                med(getattr(r, k) for r in rs) for k in ('solve_cpu_s', 'eval_cpu_s', 'hess_cpu_s')
+            )
+            md.append(
+                f'| {car} | {w} | {h} | {rs[-1].iterations} | {1e3 * ev / it:.0f} '
+                f'| {1e3 * he / it:.0f} | {1e3 * (cpu - ev - he) / it:.0f} | {1e3 * cpu / it:.0f} |'
+            )
+            if w == 'suspopt' and ('suspopt' not in best or cpu < best['suspopt'][0]):
+                best['suspopt'] = (cpu, rs[-1], cpu / it)
+            if h == 'exact' and w.startswith('CasADi'):
+                best[w] = (cpu, rs[-1], cpu / it)
+        s_cpu, s_run, s_it = best['suspopt']
+        for w in ('CasADi peer', 'CasADi peer (SX)'):
+            if w not in best:
+                continue
+            p_cpu, p_run, p_it = best[w]
+            summary.append(
+                f"{car}: suspopt's fastest option ({s_run.hessian}) takes {s_cpu / p_cpu:.2f}× the "
+                f'CPU time of the {w} with the exact Hessian: {s_run.iterations} iterations '
+                f'against {p_run.iterations} ({s_run.iterations / max(p_run.iterations, 1):.2f}×) '
+                f'at {1e3 * s_it:.0f} against {1e3 * p_it:.0f} ms per iteration '
+                f'({s_it / p_it:.2f}×).'
+            )
+    md += ['', *summary]
     md += [
         '',
         'Δ: |f − f(peer, exact)| / f(peer, exact). Solve: IPOPT alone (suspopt: the '

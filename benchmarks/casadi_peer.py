@@ -310,6 +310,7 @@ def solve_peer(
     solve_time, solve_cpu = time.perf_counter() - t_solve, time.process_time() - cpu_solve
 
     stats = solver.stats()
+    t_eval = sum(stats.get(f't_proc_nlp_{k}', 0.0) for k in ('f', 'g', 'grad_f', 'jac_g'))
     w_opt = np.asarray(sol['x']).ravel()
     x_opt = LOWER + (UPPER - LOWER) * w_opt[:4]
     J_opt = np.asarray(terms_fn(w_opt)).ravel()
@@ -326,6 +327,8 @@ def solve_peer(
         'build_time_s': build_time,
         'solve_time_s': solve_time,
         'solve_cpu_s': solve_cpu,
+        'eval_cpu_s': float(t_eval),  # IPOPT's calls of f, g and their derivatives
+        'hess_cpu_s': float(stats.get('t_proc_nlp_hess_l', 0.0)),  # of the Hessian
         'total_time_s': build_time + solve_time,
     }
 
