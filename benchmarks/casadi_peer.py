@@ -73,6 +73,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -288,7 +289,7 @@ def solve_peer(
 
     w = ca.vertcat(xhat, ca.vec(X_free))
     nlp = {'x': w, 'f': f, 'g': ca.vec(defects)}
-    opts = {
+    opts: dict[str, Any] = {
         'ipopt.print_level': 0,
         'print_time': False,
         'ipopt.sb': 'yes',
