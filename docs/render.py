@@ -100,6 +100,27 @@ SECTIONS = (
         ('docs/results.md',),
     ),
     (
+        'kinematics_double_wishbone',
+        ['kinematics', 'double_wishbone', '--out', 'results/kinematics_double_wishbone'],
+        'Kinematic curves of the built-in double wishbone (roll centre and its migration)',
+        ('kinematics_double_wishbone.png',),
+        ('docs/results.md',),
+    ),
+    (
+        'kinematics_sla_double_wishbone',
+        ['kinematics', 'sla_double_wishbone', '--out', 'results/kinematics_sla_double_wishbone'],
+        'Kinematic curves of the built-in sla double wishbone (roll centre and its migration)',
+        ('kinematics_sla_double_wishbone.png',),
+        ('docs/results.md',),
+    ),
+    (
+        'kinematics_macpherson',
+        ['kinematics', 'macpherson', '--out', 'results/kinematics_macpherson'],
+        'Kinematic curves of the built-in macpherson (roll centre and its migration)',
+        ('kinematics_macpherson.png',),
+        ('docs/results.md',),
+    ),
+    (
         'multistart',
         # a rerun resumes the sweep (finished tasks kept): no --overwrite
         ['sweep', 'examples/multistart.toml', '--out', 'results/multistart', '--quiet'],
@@ -117,6 +138,7 @@ BENCHMARKS = (
     ('quarter_car_closed_form', (), ('README.md',)),
     ('spectral_time_domain', ('spectral_time_domain.png',), ('README.md',)),
     ('nonlinear_damper', ('nonlinear_damper.png',), ('README.md',)),
+    ('codesign_benchmark', (), ('README.md',)),
     ('codesign_compare_low', ('codesign_half_car_low.png',), ('README.md',)),
 )
 
@@ -160,6 +182,8 @@ def section(name: str, title: str, figures: tuple[str, ...], page: str) -> str |
     and the table; the figures copied to docs/figures/, linked relative to the page)."""
     directory = RESULTS / name
     table = directory / 'table.md'
+    if not table.is_file():  # a command writing its table under its own name (kinematics)
+        table = directory / f'{name}.md'
     if not table.is_file():
         return None
     FIGURES.mkdir(parents=True, exist_ok=True)
@@ -167,6 +191,8 @@ def section(name: str, title: str, figures: tuple[str, ...], page: str) -> str |
     where = 'docs/figures' if page == 'README.md' else 'figures'
     for fig in figures:
         src = directory / 'figures' / fig
+        if not src.is_file():
+            src = directory / fig
         if src.is_file():
             dst = FIGURES / f'{name}_{fig}'
             shutil.copyfile(src, dst)
