@@ -153,6 +153,8 @@ def benchmark_section(name: str, figures: tuple[str, ...], page: str) -> str | N
         return None
     where = 'docs/figures' if page == 'README.md' else 'figures'
     text = rec['markdown'].strip()
+    if page == 'README.md':
+        text = compact(text, 'docs/performance.md')
     lines = [
         *([] if text.startswith('#') else [f'### {rec["title"]}', '']),
         text,
@@ -187,7 +189,13 @@ def section(name: str, title: str, figures: tuple[str, ...], page: str) -> str |
     if not table.is_file():
         return None
     FIGURES.mkdir(parents=True, exist_ok=True)
-    lines = [f'### {title}', '', table.read_text().strip(), '']
+    body = table.read_text().strip()
+    lines = [
+        f'### {title}',
+        '',
+        compact(body, 'docs/results.md') if page == 'README.md' else body,
+        '',
+    ]
     where = 'docs/figures' if page == 'README.md' else 'figures'
     for fig in figures:
         src = directory / 'figures' / fig
@@ -198,6 +206,20 @@ def section(name: str, title: str, figures: tuple[str, ...], page: str) -> str |
             shutil.copyfile(src, dst)
             lines += [f'![{name} {fig[:-4]}]({where}/{dst.name})', '']
     return '\n'.join(lines)
+
+
+def compact(text: str, where: str, blocks: int = 2) -> str:
+    """The README's cut of a table: its lead and its first ``blocks`` bold-titled parts
+    (the full table is on docs/results.md or in the results directory)."""
+    lines, out, seen = text.splitlines(), [], 0
+    for line in lines:
+        if line.startswith('**') and not line.startswith('**Infeasible'):
+            seen += 1
+            if seen > blocks:
+                out += ['', f'(The rest: [{where}]({where}).)']
+                break
+        out.append(line)
+    return '\n'.join(out)
 
 
 def replace_between(text: str, name: str, body: str, kind: str = 'results') -> str:
