@@ -71,10 +71,10 @@ class Mode:
         return f'a {self.motion} mode, |λ| = {self.rate:.3g} 1/s, {kind}'
 
 
-def vehicle_spec(config: StudyConfig, scenario: Scenario) -> VehicleSpec:
-    """The low-fidelity vehicle of ``config`` in ``scenario`` (what
-    :func:`suspopt.transcription.vehicle.vehicle_spec` builds, without the multibody
-    modules)."""
+def passive_vehicle_spec(config: StudyConfig, scenario: Scenario) -> VehicleSpec:
+    """The passive, linear low-fidelity vehicle of ``config`` in ``scenario``: its masses,
+    tyres, bars, roads and static loads (:func:`suspopt.transcription.vehicle.vehicle_spec`
+    adds the multibody modules, the seats, the hardware curves and a control)."""
     v = config.vehicle
     lay = v.layout()
     axles = v.axles
@@ -102,7 +102,7 @@ def vehicle_spec(config: StudyConfig, scenario: Scenario) -> VehicleSpec:
 def modes(config: StudyConfig, design: dict[str, float]) -> list[Mode]:
     """The eigenvalues of the low-fidelity vehicle (its chassis and wheels) linearized at
     the static position at ``design``, fastest first."""
-    spec = vehicle_spec(config, config.scenarios()[0])
+    spec = passive_vehicle_spec(config, config.scenarios()[0])
     assembly = assemble(spec, 'low')
     evaluate = AssemblyEvaluator(assembly, skip=('road',))
     sizes = [int(np.prod(s.shape)) for s in assembly.states]

@@ -12,11 +12,10 @@ import numpy as np
 from suspopt.curves import SpringDamperUnit
 from suspopt.errors import ConfigError
 from suspopt.models.assembly import ControlSpec, VehicleAssembly, VehicleSpec, assemble
-from suspopt.models.metrics import static_loads
 from suspopt.multibody.mechanism import Mechanism, load_mechanism
 from suspopt.multibody.suspension import SuspensionModule
-from suspopt.road import road_tracks
 from suspopt.spec.hardware import AXLE_KEYS, corner_units, study_units
+from suspopt.spec.modes import passive_vehicle_spec
 from suspopt.spec.resolve import Scenario
 from suspopt.spec.schema import StudyConfig
 
@@ -84,42 +83,22 @@ def vehicle_spec(
     """The plain description of the vehicle model of ``config`` in ``scenario``;
     ``modules`` maps a mechanism name to its (shared) multibody module for the mixed
     fidelity (:func:`multibody_modules`)."""
-    v = config.vehicle
-    lay = v.layout()
-    axles = v.axles
-    bar_axles = tuple(i for i, ax in enumerate(axles) if ax.anti_roll_bar)
-    pairs = lay.anti_roll_pairs(bar_axles)
-    bars = (
-        tuple(p[1] for p in pairs),
-        tuple(p[2] for p in pairs),
-        tuple(axles[p[0]].track for p in pairs),
-    )
-    wheel_mass = np.array([axles[c.axle].wheel_mass for c in lay.corners])
-    static = static_loads(lay, v.chassis_mass, wheel_mass)
+    base = passive_vehicle_spec(config, scenario)
+    assert base.static_load is not None  # the passive spec states its static loads
     corner_modules: tuple = ()
     if fidelity == 'mixed':
         modules = modules or multibody_modules(config)
         keys = module_keys(config)
-        corner_modules = tuple(modules[keys[c.axle]] for c in lay.corners)
-    return VehicleSpec(
-        layout=lay,
-        M=v.chassis_mass,
-        I=v.chassis_pitch_inertia,
-        I_x=v.chassis_roll_inertia,
-        m=wheel_mass,
-        k_T=np.array([axles[c.axle].tyre_stiffness for c in lay.corners]),
-        design=config.design_names(),
-        bars=bars,
-        tracks=road_tracks(scenario.road, lay.n_tracks, lay.track_separation()),
-        speed=float(scenario.speed),
+        corner_modules = tuple(modules[keys[c.axle]] for c in base.layout.corners)
+    return dataclasses.replace(
+        base,
         modules=corner_modules,
         fd_form=config.multibody.fd_form,
         fd_step=config.multibody.fd_step,
         mount=config.multibody.mount,
-        static_load=static,
         seats=tuple((s.name, s.x, s.y) for s in config.comfort.seats),
         units=corner_units(config) if any(study_units(config)) else (),
-        control=control_spec(config, static),
+        control=control_spec(config, base.static_load),
     )
 
 
