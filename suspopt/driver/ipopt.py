@@ -489,6 +489,12 @@ class IpoptDriver(Driver):
         self.options.declare(
             'pinned', default=[], types=(list, tuple), desc='design variables held fixed'
         )
+        self.options.declare(
+            'released',
+            default=[],
+            types=(list, tuple),
+            desc='constraints whose bounds this run drops (an evaluation reports them)',
+        )
 
     def _get_name(self) -> str:
         return 'IpoptDriver'
@@ -994,9 +1000,16 @@ class IpoptDriver(Driver):
         for name in pinned:
             sl = self._dv_slices[name]
             lb[sl] = ub[sl] = x0[sl]
+        cl, cu = self._cl.copy(), self._cu.copy()
+        released = set(self.options['released'])
+        start = 0
+        for con in lay.constraints:
+            if con.name in released:
+                cl[start : start + con.size], cu[start : start + con.size] = -np.inf, np.inf
+            start += con.size
 
         self._nlp = nlp = cyipopt.Problem(
-            n=lay.n, m=lay.m, problem_obj=self._callbacks(), lb=lb, ub=ub, cl=self._cl, cu=self._cu
+            n=lay.n, m=lay.m, problem_obj=self._callbacks(), lb=lb, ub=ub, cl=cl, cu=cu
         )
         for key, val in self._ipopt_options().items():
             nlp.add_option(key, val)

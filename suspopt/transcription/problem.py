@@ -410,6 +410,15 @@ class VehicleProblem:
             return max(f)
         return float(sum(sc.weight * fi for sc, fi in zip(self.scenarios, f)))
 
+    def engineering_constraints(self) -> list[str]:
+        """The NLP's constraints that are engineering constraints (``docs/metrics.md``):
+        the path constraints on the ODE's signals and the design metrics'."""
+        return [
+            c.name
+            for c in self.driver.layout().constraints
+            if c.name.startswith(f'{GROUP}.') or '.rhs_all.' in c.name
+        ]
+
     def constraint_values(self) -> tuple[ConstraintValue, ...]:
         """Every side of every engineering constraint at the current solution: a path
         constraint at its worst over the nodes, corners and scenarios, a design-only one
@@ -530,6 +539,9 @@ class VehicleProblem:
         t2 = time.perf_counter()
         c2 = time.process_time()
         drv.options['pinned'] = pinned
+        # an evaluation of a fixed design reports the engineering constraints: it cannot
+        # move to meet them (an optimization keeps them)
+        drv.options['released'] = [] if optimize else self.engineering_constraints()
         p.run_driver()
         t3 = time.perf_counter()
         success = drv.status in (0, 1)

@@ -100,3 +100,37 @@ def test_mixed_fidelity_wheel_rates_are_the_linkages():
         a, b, _ = reference_wheel_rate(getattr(m, 'base_mechanism', m))
         assert (rates.slope[i], rates.offset[i]) == pytest.approx((a, b), rel=1e-12)
     assert not np.allclose(rates.slope, 1.0)  # the linkages' motion ratios are not 1
+
+
+def test_an_evaluation_reports_the_constraints_a_fixed_design_violates():
+    """Found: evaluating a design outside a constraint (here the full car's roll gradient,
+    bars removed) failed as infeasible: a fixed design cannot move to meet it. The
+    evaluation now solves the collocation and reports the violation."""
+    from suspopt.studies.run import evaluate
+
+    cfg = config_from_dict(
+        {
+            'vehicle': {'model': 'full_car'},
+            'maneuver': {'horizon': 0.5},
+            'road': {'profile': 'bump', 'height': 0.02, 'length': 1.0, 'start': 1.0},
+            'transcription': {'segments': 10},
+            'objective': {
+                'normalization': 'custom',
+                'scales': {
+                    t: 1.0
+                    for t in (
+                        'tyre_load_1L',
+                        'tyre_load_1R',
+                        'tyre_load_2L',
+                        'tyre_load_2R',
+                        'comfort_driver',
+                    )
+                },
+            },
+        }
+    )
+    design = {**cfg.design.initial(), 'k_R1': 0.0, 'k_R2': 0.0}
+    rec = evaluate(cfg, 'low', design, verify=False)
+    assert rec.success, rec.status
+    (roll,) = [c for c in rec.constraints if c.name == 'roll_gradient.max']
+    assert roll.value > roll.bound
