@@ -106,6 +106,11 @@ def main() -> None:
     for label, terms, f, s in [("the car's dampers (start)", start, 1.0, None)] + [
         (n, rec[n].terms or {}, rec[n].objective, sig[n]) for n in ('linear', 'curves')
     ]:
+        if f is None:  # no design of this kind meets the constraints (IPOPT's verdict)
+            why = rec[label].infeasibility
+            what = why.describe() if why is not None else rec[label].status
+            rows.append(f'| {label} | — | — | — | infeasible: {what} | — |')
+            continue
         comfort = group(terms, 'comfort_') / group(start, 'comfort_')
         tyre = group(terms, 'tyre_load_') / group(start, 'tyre_load_')
         extra = (
@@ -117,8 +122,12 @@ def main() -> None:
         rows.append(f'| {label} | {f:.4f} | {comfort:.4f} | {tyre:.4f} | {extra} |')
     c = rec['curves']
     verdicts = ', '.join(
-        f'{n}: {rec[n].verification.state.value} (largest term difference '
-        f'{rec[n].verification.comparison.max_rel_diff:.1e})'
+        f'{n}: {rec[n].verification.state.value}'
+        + (
+            f' (largest term difference {comp.max_rel_diff:.1e})'
+            if (comp := rec[n].verification.comparison) is not None
+            else ''
+        )
         for n in ('linear', 'curves')
     )
     md = '\n'.join(
@@ -137,13 +146,13 @@ def main() -> None:
             '',
             f'Constraints of the study: travel bump {1e3 * con.travel.bump:g} mm, rebound '
             f'{1e3 * con.travel.rebound:g} mm; tyre load ratio >= {con.tyre_contact.margin - 1:g}'
-            ' (the collocation enforces them once `[constraints]` are solved; the columns '
-            'show whether each optimum keeps them). Verification by time marching: '
+            ' (path constraints of the collocation at every node; the columns show the '
+            'time-marched extremes). Verification by time marching: '
             f'{verdicts}.',
             '',
             'Optimal curves: '
             + ', '.join(f'{n} = {v:.4g}' for n, v in c.design.items() if _curve_variable(n))
-            + '; linear: '
+            + ('; linear: ' if rec['linear'].success else '; linear, where IPOPT stopped: ')
             + ', '.join(f'{n} = {v:.4g}' for n, v in rec['linear'].design.items() if 'c_S' in n)
             + '.',
             '',
