@@ -76,6 +76,7 @@ from suspopt.driver.hessian import (
 from suspopt.driver.propagation import TOTALS_METHODS, PropagatedTotals, make_totals
 from suspopt.driver.propagation import supported as propagation_supported
 from suspopt.driver.sparsity import Coloring, Variable, compute_coloring
+from suspopt.driver.structure import driver_name
 from suspopt.driver.totals import ColoredTotals, Layout, flat_positions, nlp_layout
 from suspopt.errors import RunError
 
@@ -761,7 +762,7 @@ class IpoptDriver(Driver):
             self.iter_count += 1
             return
         try:
-            with RecordingDebugging(self._get_name(), self.iter_count, self):
+            with RecordingDebugging(driver_name(self), self.iter_count, self):
                 if x is not None and (self._x_run is None or not np.array_equal(x, self._x_run)):
                     try:
                         self._evaluate(np.asarray(x, dtype=float))

@@ -10,6 +10,8 @@ reads them from its internals, and nothing else in suspopt does. Private names u
   ``meta['shape']`` (absolute variable names), and ``meta['val']``, the values of the last
   linearization (read by :meth:`Subjac.values` for the propagated total derivatives);
 * ``Group._conn_global_abs_in2out`` — every input's source output (absolute names);
+* ``Driver._get_name()`` — the name a driver's recorded iterations carry (the
+  fallback: its class name);
 * ``System._var_abs2meta['input'][name]['src_inds_list']`` — the chain of source indices of
   a connected input (turned into one flat index array by OpenMDAO's public
   ``openmdao.utils.indexer.idx_list_to_index_array``).
@@ -88,3 +90,10 @@ def input_sources(model: om.Group) -> dict[str, tuple[str, np.ndarray | None]]:
             idx = np.asarray(idx_list_to_index_array(chain), dtype=np.int64).ravel()
         out[tgt] = (src, idx)
     return out
+
+
+def driver_name(driver: om.Driver) -> str:
+    """The name OpenMDAO's recorders give a driver's iterations (``Driver._get_name``, no
+    public equivalent; its class name where that is missing)."""
+    get = getattr(driver, '_get_name', None)
+    return str(get()) if callable(get) else type(driver).__name__

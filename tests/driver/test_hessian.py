@@ -329,3 +329,17 @@ def test_the_study_files_hessian_key_reaches_ipopt(key):
 def test_an_unknown_hessian_is_refused_naming_the_key():
     with pytest.raises(ConfigError, match=r"optimizer.hessian: .*did you mean 'exact'"):
         config_from_dict({'optimizer': {'hessian': 'exakt'}})
+
+
+def test_the_drivers_name_for_the_recorders_has_a_public_fallback():
+    """The one private Driver name (quarantined in suspopt.driver.structure) and its
+    fallback give the recorders a name."""
+    from suspopt.driver import IpoptDriver
+    from suspopt.driver.structure import driver_name
+
+    assert driver_name(IpoptDriver()) == 'IpoptDriver'
+
+    class Bare:
+        pass
+
+    assert driver_name(Bare()) == 'Bare'  # type: ignore[arg-type]
