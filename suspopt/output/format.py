@@ -142,7 +142,7 @@ def constraint_table(res: SolveRecord) -> list[str]:
     ]
     for v, k in rows:
         unit = f' {v.units}' if v.units else ''
-        marched = '—' if k is None else fmt(k.value) + (' **violated**' if k.violated else '')
+        marched = '—' if k is None else fmt(k.value) + (' **violated**' if k.exceeded else '')
         lines.append(
             f'| `{v.name}` | {"≤" if v.upper else "≥"} {v.bound:g}{unit} | {fmt(v.value)} | '
             f'{marched} | {fmt(v.margin, 3)} | {"**active**" if v.active else "no"} | '

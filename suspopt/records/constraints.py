@@ -43,8 +43,11 @@ class ConstraintValue(Record):
 @dataclass(frozen=True)
 class ConstraintCheck(Record):
     """A path constraint checked along a dense time-marching trajectory: its worst
-    ``value`` (and ``where``), and whether it exceeds the bound by more than the
-    ``tolerance`` (``violated``)."""
+    ``value`` (and ``where``), whether the design exceeds the bound by more than the
+    ``tolerance`` there (``exceeded``), and whether that is a verification failure
+    (``violated``): only if the collocation met the constraint (``collocation_met``) —
+    a design the collocation already finds outside (an evaluation's, which reports its
+    constraints instead of enforcing them) is not a disagreement of the two."""
 
     name: str
     upper: bool
@@ -52,14 +55,19 @@ class ConstraintCheck(Record):
     value: float
     tolerance: float
     where: str = ''
+    collocation_met: bool = True
 
     @property
     def margin(self) -> float:
         return margin(self.value, self.bound, self.upper)
 
     @property
-    def violated(self) -> bool:
+    def exceeded(self) -> bool:
         return bool(self.margin < -self.tolerance)
+
+    @property
+    def violated(self) -> bool:
+        return self.collocation_met and self.exceeded
 
     def describe(self) -> str:
         """One line: the bound, the time marching's worst value and where."""
@@ -71,7 +79,7 @@ class ConstraintCheck(Record):
         )
 
     def derived(self) -> dict[str, Any]:
-        return {'margin': self.margin, 'violated': self.violated}
+        return {'margin': self.margin, 'exceeded': self.exceeded, 'violated': self.violated}
 
 
 @dataclass(frozen=True)

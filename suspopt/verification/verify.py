@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from suspopt.errors import ModelError
-from suspopt.records.constraints import ConstraintCheck, Infeasibility
+from suspopt.records.constraints import ConstraintCheck, ConstraintValue, Infeasibility
 from suspopt.records.control import ControlHistory
 from suspopt.records.solve import SolveRecord
 from suspopt.records.trajectory import Trajectory
@@ -182,13 +182,14 @@ def time_marching_check(
     modules: dict | None = None,
     keep: bool = False,
     controls: tuple[ControlHistory, ...] = (),
+    collocation: tuple[ConstraintValue, ...] = (),
 ) -> tuple[Comparison, list[Trajectory]]:
     """Time-march ``design`` (and its open-loop ``controls``) in every scenario and
     compare with the collocation's ``terms``: verified if every term with a nonzero weight
     agrees within :data:`VERIFY_TOLERANCE` (relative to its time-marched value, at least
-    :data:`VERIFY_FLOOR` of its scale) and every path constraint holds along the dense
-    time-marching trajectories (:func:`constraint_tolerance`). With ``keep``, the
-    trajectories come too."""
+    :data:`VERIFY_FLOOR` of its scale) and every path constraint the collocation meets
+    (its values: ``collocation``) holds along the dense time-marching trajectories
+    (:func:`constraint_tolerance`). With ``keep``, the trajectories come too."""
     t0 = time.perf_counter()
     weights = config.objective.weights
     marched = march(config, fidelity, design, scales, modules=modules, keep=keep, controls=controls)
@@ -218,27 +219,36 @@ def time_marching_check(
         objective=combine(config, [s.objective for s in scenarios]),
         max_rel_diff=max([0.0] + [s.max_rel_diff for s in scenarios]),
         time_s=time.perf_counter() - t0,
-        constraints=constraint_checks(config, marched),
+        constraints=constraint_checks(config, marched, collocation),
     )
     return comparison, [m.trajectory for m in marched if m.trajectory is not None]
 
 
-def constraint_checks(config: StudyConfig, marched: list[Marched]) -> tuple[ConstraintCheck, ...]:
-    """Every path constraint at its worst over the scenarios' time-marching trajectories."""
+def constraint_checks(
+    config: StudyConfig,
+    marched: list[Marched],
+    collocation: tuple[ConstraintValue, ...] = (),
+) -> tuple[ConstraintCheck, ...]:
+    """Every path constraint at its worst over the scenarios' time-marching trajectories,
+    each marked whether the collocation (its ``collocation`` values; none given: met)
+    meets it within the same tolerance."""
+    coll = {v.name: v for v in collocation}
     out = []
     for b in bounds(config):
         found = [m.worst[b.name] for m in marched if b.name in m.worst]
         if b.kind != 'path' or not found:
             continue
         w = min(found, key=lambda x: b.margin(x.value))
+        tol = constraint_tolerance(b)
         out.append(
             ConstraintCheck(
                 name=b.name,
                 upper=b.upper,
                 bound=b.bound,
                 value=w.value,
-                tolerance=constraint_tolerance(b),
+                tolerance=tol,
                 where=w.where,
+                collocation_met=b.name not in coll or coll[b.name].margin >= -tol,
             )
         )
     return tuple(out)
@@ -264,7 +274,7 @@ def infeasibility(
         except ModelError:  # the design cannot be marched: only the design-only ones
             marched = []
         for k in constraint_checks(config, marched):
-            if k.violated:
+            if k.exceeded:
                 found.append(
                     (
                         -k.margin / by_name[k.name].scale,
@@ -306,6 +316,7 @@ def verify(
         modules=modules,
         keep=keep,
         controls=record.controls,
+        collocation=record.constraints,
     )
     return record.with_verification(Verification.of(comparison)), trajectories
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from suspopt.records.constraints import ConstraintValue
 from suspopt.records.verification import Check, Comparison, Verification
 from suspopt.spec.load import config_from_dict
 from suspopt.transcription.constraints import (
@@ -79,8 +80,13 @@ def _marched(worst_bump: float) -> list[Marched]:
     return [Marched('main', {}, 1.0, 0.1, None, None, worst={'travel.bump': w})]
 
 
-def _comparison(worst_bump: float) -> Comparison:
-    return Comparison('tm', 5e-3, (), 1.0, 1e-4, 0.1, constraint_checks(CFG, _marched(worst_bump)))
+def _comparison(worst_bump: float, collocation_bump: float | None = None) -> Comparison:
+    coll = ()
+    if collocation_bump is not None:
+        b = _bound('travel.bump')
+        coll = (ConstraintValue(b.name, 'path', 'm', True, b.bound, collocation_bump, False),)
+    checks = constraint_checks(CFG, _marched(worst_bump), coll)
+    return Comparison('tm', 5e-3, (), 1.0, 1e-4, 0.1, checks)
 
 
 def test_a_violation_within_the_tolerance_is_verified():
@@ -101,6 +107,30 @@ def test_a_violation_beyond_the_tolerance_is_not_verified():
     v = Verification.of(c)
     assert v.state is Check.NOT_VERIFIED and v.verified is False
     assert 'travel.bump' in c.violated[0].describe()
+
+
+@pytest.mark.parametrize('collocation_bump', [0.05, 0.05 + 0.9 * 0.03 * 0.05])
+def test_a_violation_the_collocation_meets_is_not_verified(collocation_bump):
+    """The collocation's own value given: on or within the tolerance of the bound, a
+    time-marching violation beyond it is still a disagreement of the two."""
+    tol = constraint_tolerance(_bound('travel.bump'))
+    c = _comparison(0.05 + 1.1 * tol, collocation_bump)
+    assert [k.name for k in c.violated] == ['travel.bump']
+    assert Verification.of(c).state is Check.NOT_VERIFIED
+
+
+@pytest.mark.parametrize('factor', [1.1, 3.0])
+def test_a_violation_the_collocation_also_has_is_verified(factor):
+    """An evaluation reports its constraints instead of enforcing them: a design whose
+    collocation already exceeds a bound, time marching agreeing, is verified — the
+    constraint is reported exceeded, not as a disagreement."""
+    tol = constraint_tolerance(_bound('travel.bump'))
+    worst = 0.05 + factor * tol
+    c = _comparison(worst, worst * (1 + 1e-6))
+    (k,) = c.constraints
+    assert k.exceeded and not k.collocation_met and not k.violated
+    assert not c.violated and Verification.of(c).state is Check.VERIFIED
+    assert Comparison.from_json(c.to_json()).constraints[0].exceeded
 
 
 @pytest.mark.parametrize(('segments', 'order'), [(1, 3), (4, 3), (7, 5)])
