@@ -68,6 +68,29 @@ class Comparison(Record):
         """The scenario with the largest difference."""
         return max(self.scenarios, key=lambda s: s.max_rel_diff)
 
+    def disagreement(self) -> str:
+        """Why the two routes disagree, in words (empty if they agree): the path
+        constraints time marching violates, and the largest difference of the weighted
+        terms if it is beyond the tolerance."""
+        why = []
+        if self.violated:
+            why.append(
+                'time marching violates '
+                + '; '.join(k.describe() for k in self.violated)
+                + ' (the collocation holds it at its nodes only)'
+            )
+        if self.max_rel_diff > self.tolerance:
+            term = f' on {self.worst.worst_term}' if self.scenarios else ''
+            why.append(
+                f'collocation and time marching differ by {100 * self.max_rel_diff:.3g} %'
+                f'{term} (tolerance {100 * self.tolerance:g} %)'
+            )
+        return '; '.join(why)
+
+    def severity(self) -> tuple[int, float]:
+        """Orders disagreements: a violated constraint first, then the larger difference."""
+        return (len(self.violated), self.max_rel_diff)
+
 
 #: the note of each state without a comparison, unless a more specific one is given
 NOTES = {

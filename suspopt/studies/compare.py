@@ -495,12 +495,11 @@ def finish(study: CompareStudy) -> CompareStudy:
     compared = {k: c.verification.comparison for k, c in study.cells.items() if c.verified is False}
     study.warnings = []
     if compared:
-        worst, v = max(compared.items(), key=lambda kv: kv[1].max_rel_diff if kv[1] else 0.0)
+        worst, v = max(compared.items(), key=lambda kv: kv[1].severity() if kv[1] else (0, 0.0))
         assert v is not None
         study.warnings.append(
             f'not verified: {len(compared)} of {len(study.cells)} cells; worst '
-            f'{worst}: collocation and time marching differ by {100 * v.max_rel_diff:.2g} % '
-            f'on {v.scenarios[0].worst_term} (tolerance {100 * study.tolerance:g} %): '
+            f'{worst}: {v.disagreement()}: '
             'the grid is too coarse for this car and road; more --segments'
         )
     study.verified = None if not study.verify else not compared

@@ -30,7 +30,7 @@ from suspopt.studies.run import (
 )
 from suspopt.transcription.problem import VehicleProblem
 from suspopt.verification.scales import resolve_scales
-from suspopt.verification.verify import VERIFY_TOLERANCE, Verified, Verifier
+from suspopt.verification.verify import Verified, Verifier
 
 #: the signals of a time-marched trajectory kept for the verification figure
 KEPT_SIGNALS = ('zdd_C', 'thdd_C', 'phidd_C', 'wheel_z')
@@ -267,11 +267,9 @@ def _not_verified_warning(study: TwoStepStudy, unverified: list[str]) -> str:
     """The warning of a study whose evaluations ``unverified`` time marching disagrees with
     (every one of them has a comparison), naming the worst."""
     compared = {k: study.evaluations[k].verification.comparison for k in unverified}
-    worst, c = max(compared.items(), key=lambda kc: kc[1].max_rel_diff if kc[1] else 0.0)
+    worst, c = max(compared.items(), key=lambda kc: kc[1].severity() if kc[1] else (0, 0.0))
     assert c is not None
     return (
-        f'not verified: collocation and time marching differ by '
-        f'{100 * c.max_rel_diff:.2g} % on {c.scenarios[0].worst_term} '
-        f'({worst}; tolerance {100 * VERIFY_TOLERANCE:g} %): the grid is too coarse '
+        f'not verified: {c.disagreement()} ({worst}): the grid is too coarse '
         'for this car and road; more --segments or segments = "auto"'
     )

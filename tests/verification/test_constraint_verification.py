@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from suspopt.records.constraints import ConstraintValue
-from suspopt.records.verification import Check, Comparison, Verification
+from suspopt.records.verification import Check, Comparison, ScenarioComparison, Verification
 from suspopt.spec.load import config_from_dict
 from suspopt.transcription.constraints import (
     bounds,
@@ -107,6 +107,19 @@ def test_a_violation_beyond_the_tolerance_is_not_verified():
     v = Verification.of(c)
     assert v.state is Check.NOT_VERIFIED and v.verified is False
     assert 'travel.bump' in c.violated[0].describe()
+    # the one sentence every message of a study or command gives: the constraint, not a
+    # difference of the terms that is within the tolerance
+    assert 'violates constraints.travel.bump' in c.disagreement()
+    assert 'differ by' not in c.disagreement()
+
+
+def test_a_difference_of_the_terms_is_named_with_its_term():
+    s = ScenarioComparison('main', {}, 1.0, 0.02, 'comfort_driver', 0.1)
+    c = Comparison('tm', 5e-3, (s,), 1.0, 0.02, 0.1)
+    assert c.disagreement() == (
+        'collocation and time marching differ by 2 % on comfort_driver (tolerance 0.5 %)'
+    )
+    assert _comparison(0.05).disagreement() == ''
 
 
 @pytest.mark.parametrize('collocation_bump', [0.05, 0.05 + 0.9 * 0.03 * 0.05])
