@@ -4,12 +4,14 @@
                                                 [--fidelity low|mixed] [--segments N]
 
 Optimizes the study file's dampers (each axle's four slopes and bump-stop gap, the
-springs and bars held) and its linear baseline (the same file without the curve tables:
-one ``c_S`` per axle in the slopes' bounds), from the car's own dampers, with the same
-normalization (the baseline's reference: f = 1 at the car's dampers), verifies both
-optima by time marching, and reports what the curves buy in comfort (the seat's ISO
-2631-1 Wk term) and road holding (the dynamic tyre loads), with the largest travel and
-the least tyre load of each optimum against the study's constraints. Writes
+springs and bars held) and two linear baselines — the same hardware with one linear
+``c_S`` per axle in the slopes' bounds (the stops kept, their gaps designed), and the
+file without any curve table (a linear damper and no stop) — from the car's own
+dampers, with the same normalization (the stopless baseline's reference: f = 1 at the
+car's dampers), verifies every optimum by time marching, and reports what the curves
+buy in comfort (the seat's ISO 2631-1 Wk term) and road holding (the dynamic tyre
+loads), with the largest travel and the least tyre load of each optimum against the
+study's constraints. Writes
 ``benchmarks/results/nonlinear_damper.json`` (:func:`_common.write_result`) and the
 figure ``docs/figures/nonlinear_damper.png``: each axle's damper force against velocity
 and its springs' force against travel (the stop), with the ranges the time marching
@@ -41,15 +43,24 @@ AXLES = ('front', 'rear')
 SLOTS = ('spring_curve', 'damper_curve', 'bump_stop', 'rebound_stop')
 
 
-def linear_baseline(curves: dict) -> dict:
-    """The study without its curve tables: a linear damper ``c_S`` per axle, started at
-    the curve's low bump slope and bounded as the slopes; the other variables as given."""
+#: the cases, in the table's order: each baseline's curve tables removed (None: the study)
+CASES: dict[str, tuple[str, ...] | None] = {
+    'linear, no stop': SLOTS,
+    'linear + stop': ('damper_curve',),
+    'curves': None,
+}
+
+
+def linear_baseline(curves: dict, slots: tuple[str, ...] = SLOTS) -> dict:
+    """The study without its curve tables ``slots`` (and their design variables): a
+    linear damper ``c_S`` per axle, started at the curve's low bump slope and bounded as
+    the slopes; the other variables as given."""
     data = copy.deepcopy(curves)
     design = data['design']
     for a, axle in enumerate(AXLES):
         table = data['vehicle'][axle]
         damper = table.get('damper_curve', {})
-        for slot in SLOTS:
+        for slot in slots:
             table[slot] = {}
         slopes = [v for n, v in design.items() if n.startswith('c_') and n.endswith(f'_{a + 1}')]
         name = f'c_S{a + 1}'
@@ -59,12 +70,13 @@ def linear_baseline(curves: dict) -> dict:
             'upper': max(s['upper'] for s in slopes),
             'optimize': True,
         }
-    data['design'] = {n: v for n, v in design.items() if not _curve_variable(n)}
+    data['design'] = {n: v for n, v in design.items() if _curve_variable(n) not in slots}
     return data
 
 
-def _curve_variable(name: str) -> bool:
-    return name != 'per_corner' and bool(design_id(name).kind.slot)
+def _curve_variable(name: str) -> str:
+    """The curve table a design variable belongs to ('' if none)."""
+    return '' if name == 'per_corner' else design_id(name).kind.slot
 
 
 def marched(cfg, fidelity: str, design: dict[str, float]) -> dict[str, np.ndarray]:
@@ -87,10 +99,13 @@ def main() -> None:
     curves = load_config(args.config).to_dict()
     if args.segments:
         curves['transcription']['segments'] = args.segments
-    cfg = {'curves': config_from_dict(curves), 'linear': config_from_dict(linear_baseline(curves))}
-    scales = resolve_scales(cfg['linear'])
+    cfg = {
+        name: config_from_dict(curves if slots is None else linear_baseline(curves, slots))
+        for name, slots in CASES.items()
+    }
+    scales = resolve_scales(cfg['linear, no stop'])
     rec, sig, wall = {}, {}, {}
-    for name in ('linear', 'curves'):
+    for name in CASES:
         t0 = time.perf_counter()
         rec[name] = optimize(cfg[name], args.fidelity, scales=scales)
         wall[name] = time.perf_counter() - t0
@@ -104,7 +119,7 @@ def main() -> None:
     con = cfg['curves'].constraints
     rows = []
     for label, terms, f, s in [("the car's dampers (start)", start, 1.0, None)] + [
-        (n, rec[n].terms or {}, rec[n].objective, sig[n]) for n in ('linear', 'curves')
+        (n, rec[n].terms or {}, rec[n].objective, sig[n]) for n in CASES
     ]:
         if f is None:  # no design of this kind meets the constraints (IPOPT's verdict)
             why = rec[label].infeasibility
@@ -128,7 +143,7 @@ def main() -> None:
             if (comp := rec[n].verification.comparison) is not None
             else ''
         )
-        for n in ('linear', 'curves')
+        for n in CASES
     )
     md = '\n'.join(
         [
@@ -136,8 +151,10 @@ def main() -> None:
             f'({cfg["curves"].vehicle.model}, {cfg["curves"].road["profile"]} class '
             f'{cfg["curves"].road.get("road_class", "")}, {cfg["curves"].maneuver.speed:g} m/s, '
             f'{cfg["curves"].maneuver.horizon:g} s, {cfg["curves"].scenarios()[0].segments} '
-            "segments), from the car's dampers, normalized by the linear baseline's "
-            'reference; comfort and road holding relative to the start:',
+            "segments), from the car's dampers, normalized by the reference of the car "
+            'with linear dampers and no stop; comfort and road holding relative to the '
+            'start. *linear + stop*: the same hardware as *curves* (the stops, their gaps '
+            'designed) with a linear damper:',
             '',
             '| dampers | f | comfort (seat Wk) | road holding (tyre loads) | '
             'largest bump / rebound travel [mm] | least tyre load ratio |',
@@ -152,13 +169,23 @@ def main() -> None:
             '',
             'Optimal curves: '
             + ', '.join(f'{n} = {v:.4g}' for n, v in c.design.items() if _curve_variable(n))
-            + ('; linear: ' if rec['linear'].success else '; linear, where IPOPT stopped: ')
-            + ', '.join(f'{n} = {v:.4g}' for n, v in rec['linear'].design.items() if 'c_S' in n)
+            + ''.join(
+                f'; {n}'
+                + ('' if rec[n].success else ', where IPOPT stopped')
+                + ': '
+                + ', '.join(
+                    f'{d} = {v:.4g}'
+                    for d, v in rec[n].design.items()
+                    if 'c_S' in d or _curve_variable(d)
+                )
+                for n in CASES
+                if n != 'curves'
+            )
             + '.',
             '',
-            f'Wall time (optimization and verification): linear {wall["linear"]:.0f} s, curves '
-            f'{wall["curves"]:.0f} s; IPOPT iterations {rec["linear"].iterations} and '
-            f'{c.iterations}. Figure: `docs/figures/{Path(args.figure).name}`.',
+            'Wall time (optimization and verification) and IPOPT iterations: '
+            + ', '.join(f'{n} {wall[n]:.0f} s, {rec[n].iterations}' for n in CASES)
+            + f'. Figure: `docs/figures/{Path(args.figure).name}`.',
         ]
     )
     print(md)
@@ -191,12 +218,12 @@ def plot(cfg, rec, sig, scales, path: Path) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
     lay = cfg['curves'].layout()
     units = {n: study_units(cfg[n]) for n in cfg}
-    colours = {'linear': 'tab:blue', 'curves': 'tab:red'}
+    colours = dict(zip(CASES, ('tab:blue', 'tab:green', 'tab:red')))
     v = np.linspace(-1.0, 1.0, 401)
     x = np.linspace(-0.035, 0.035, 401)
     for a, (axle, style) in enumerate(zip(AXLES, ('-', '--'))):
         cols = [i for i, c in enumerate(lay.corners) if c.axle == a]
-        for name in ('linear', 'curves'):
+        for name in CASES:
             params = {
                 design_id(n).kind.symbol: val
                 for n, val in rec[name].design.items()
@@ -223,11 +250,12 @@ def plot(cfg, rec, sig, scales, path: Path) -> None:
     axes[1].set_title('springs and stops (shaded: the travel)')
     start = scales[0]
     groups = [('comfort', 'comfort_'), ('road holding', 'tyre_load_')]
-    width = 0.35
-    for k, name in enumerate(('linear', 'curves')):
-        terms = rec[name].terms or {}
-        vals = [group(terms, p) / group(start, p) for _, p in groups]
-        axes[2].bar(np.arange(2) + (k - 0.5) * width, vals, width, color=colours[name], label=name)
+    width = 0.27
+    for k, name in enumerate(CASES):
+        if rec[name].terms is None:  # infeasible: no optimum to show
+            continue
+        vals = [group(rec[name].terms, p) / group(start, p) for _, p in groups]
+        axes[2].bar(np.arange(2) + (k - 1) * width, vals, width, color=colours[name], label=name)
     axes[2].axhline(1.0, color='k', lw=0.8)
     axes[2].set_xticks(np.arange(2), [g for g, _ in groups])
     axes[2].set(ylabel="term relative to the car's dampers", title='what the dampers buy')
