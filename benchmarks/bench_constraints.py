@@ -15,8 +15,8 @@
   second; the target is a cost linear in the horizon (80 s at most 10× 10 s).
 
 Every run is in this process, each study from its own empty cache (each problem's
-sparsity, coloring and reference scales are part of its time, as on a first run). Timings on a shared machine are
-noisy: the ratios are measured side by side in one run.
+sparsity, coloring and reference scales are part of its time, as on a first run).
+Timings on a shared machine are noisy: the ratios are measured side by side in one run.
 """
 
 from __future__ import annotations

@@ -307,6 +307,18 @@ def spectral() -> SpectralRecord:
     )
 
 
+def codesign() -> CodesignStudy:
+    """A co-design study (``suspopt codesign``), its feedback law not converged."""
+    return CodesignStudy(
+        fidelity='low',
+        control='active',
+        entries={'passive': solve(), 'open_loop': solve(), 'feedback': solve(success=False)},
+        wall_time_s=12.5,
+        config=CONFIG,
+        complete=True,
+    )
+
+
 #: one sample of every document kind
 DOCUMENT_SAMPLES = {
     'solve': solve,
@@ -316,18 +328,5 @@ DOCUMENT_SAMPLES = {
     'compare': compare,
     'coupling': coupling,
     'spectral': spectral,
+    'codesign': codesign,
 }
-
-
-def codesign() -> CodesignStudy:
-    """A co-design study (a record of the Python API; no command writes it)."""
-    return CodesignStudy(
-        fidelity='low',
-        kind='active',
-        entries={'passive': solve(), 'open_loop': solve(), 'feedback': solve(success=False)},
-        wall_time_s=12.5,
-    )
-
-
-#: records of the Python API only (no document kind): their round trip is tested too
-API_SAMPLES = {'codesign': codesign}

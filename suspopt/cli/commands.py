@@ -379,6 +379,42 @@ def robust(args: argparse.Namespace) -> int:
     return OK
 
 
+def codesign(args: argparse.Namespace) -> int:
+    """The control co-design study (suspopt.studies.codesign): passive, open-loop and
+    feedback optima of the study file's controlled suspension."""
+    config = study_config(args)
+    from suspopt.output.report import render
+    from suspopt.output.rundir import RunDirectory
+    from suspopt.studies.codesign import run_codesign, variant
+
+    variant(config, 'passive')  # bad input (no [control]) before any work
+    with RunDirectory(args.out, args.overwrite) as out:
+        printer = Printer(args.quiet, config.design_names())
+        printer.log(
+            f'{config.control.kind.replace("_", "-")} co-design of the {args.fidelity}-fidelity '
+            f'model; results in {out.path}'
+        )
+        rec = run_codesign(
+            config,
+            args.fidelity,
+            progress=printer.progress,
+            log=printer.log,
+            verify=not args.no_verify,
+            out_dir=out,
+        )
+        printer.log('writing table and figure')
+        render(out.path)
+    _results(out.path, 'codesign.json, table.md, figures/codesign.png', rec.wall_time_s)
+    failed = [law for law, r in rec.entries.items() if not r.success]
+    if failed:
+        _error(f'IPOPT did not converge for {", ".join(failed)}; the others are kept')
+        return FAILED
+    if rec.verified is False:
+        _error('some optimum is NOT verified by time marching (see table.md)')
+        return NOT_VERIFIED
+    return OK
+
+
 def sweep(args: argparse.Namespace) -> int:
     """Many optimizations or studies in parallel on Dask (see suspopt.sweep)."""
     from suspopt.sweep.runner import run_sweep

@@ -11,6 +11,7 @@ code (:mod:`suspopt.cli.exits`) with one line per problem on stderr.
     suspopt report DIR                                    re-render table and figures of a run
     suspopt kinematics MECHANISM | --study FILE [--axle A]  a linkage's K&C curves
     suspopt robust --config FILE [--fidelity ...]         robust design over the scenarios
+    suspopt codesign --config FILE [--fidelity ...]       hardware and controller together
     suspopt sweep FILE --out DIR [--workers N | --scheduler ADDR]   many runs on Dask
 
 A DESIGN is the design variables' values in order (``30000,30000,3000,3000`` for the half

@@ -184,6 +184,19 @@ def _robust(sub: Any) -> None:
     p.set_defaults(func=commands.robust)
 
 
+def _codesign(sub: Any) -> None:
+    p = sub.add_parser(
+        'codesign',
+        help="control co-design of the study file's [control]: the passive optimum, the "
+        'open-loop bound and the feedback law, each verified',
+        epilog=EPILOG,
+    )
+    p.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
+    _common(p)
+    _run_options(p, 'results/codesign')
+    p.set_defaults(func=commands.codesign)
+
+
 def _sweep(sub: Any) -> None:
     p = sub.add_parser(
         'sweep',
@@ -310,6 +323,7 @@ COMMANDS: tuple[Callable[[Any], None], ...] = (
     _pareto,
     _compare,
     _robust,
+    _codesign,
     _sweep,
     _kinematics,
     _init,

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from suspopt import interrupts
 from suspopt.output.rundir import read_manifest, read_record
+from suspopt.records.codesign import CodesignStudy
 from suspopt.records.compare import CompareStudy
 from suspopt.records.coupling import CouplingStudy
 from suspopt.records.pareto import ParetoFront
@@ -66,4 +67,8 @@ def render(out_dir: str | Path) -> list[Path]:
             from suspopt.output.spectral_report import render_spectral
 
             return render_spectral(out, record)
+        case CodesignStudy():
+            from suspopt.output.codesign_report import render_codesign
+
+            return render_codesign(out, record)
     raise AssertionError(f'no renderer of a {manifest.kind} run')  # a bug: DOCUMENTS grew

@@ -5,7 +5,7 @@ solve of the same objective."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from suspopt.records.codec import Record
@@ -15,16 +15,30 @@ from suspopt.records.solve import SolveRecord
 PASSIVE, OPEN_LOOP, FEEDBACK = 'passive', 'open_loop', 'feedback'
 
 
-@dataclass(frozen=True)
+@dataclass
 class CodesignStudy(Record):
-    """One controlled suspension (``kind``: ``active`` or ``semi_active``) in one model
+    """One controlled suspension (``control``: ``active`` or ``semi_active``) in one model
     (``fidelity``), optimized three ways from the same objective and scales:
-    ``entries`` by :data:`PASSIVE`, :data:`OPEN_LOOP`, :data:`FEEDBACK` (those run)."""
+    ``entries`` by :data:`PASSIVE`, :data:`OPEN_LOOP`, :data:`FEEDBACK` (those run, in
+    that order; written as each comes in by ``suspopt codesign``). ``config``: the study
+    description (inputs kept in the run's directory); ``complete``: every law was run."""
+
+    KIND = 'codesign'
 
     fidelity: str
-    kind: str
-    entries: dict[str, SolveRecord]
+    control: str
+    entries: dict[str, SolveRecord] = field(default_factory=dict)
     wall_time_s: float = 0.0
+    config: dict[str, Any] = field(default_factory=dict)
+    complete: bool = False
+
+    @property
+    def verified(self) -> bool | None:
+        """Every converged entry verified by time marching (None: none was checked)."""
+        checks = [r.verified for r in self.entries.values() if r.success]
+        if not checks or any(v is None for v in checks):
+            return None
+        return all(checks)
 
     def objective(self, entry: str) -> float | None:
         """``f`` of an entry by time marching where it was verified, else the collocation's
@@ -38,7 +52,11 @@ class CodesignStudy(Record):
     def recovered(self) -> float | None:
         """The share of the open-loop bound's gain over the passive optimum that the
         feedback law realizes, ``(f_passive - f_feedback) / (f_passive - f_open_loop)``
-        (None unless all three converged)."""
+        (None unless all three converged and none is NOT verified: a time marching that
+        disagrees — e.g. a closed loop the collocation's grid hides as unstable — makes
+        the share meaningless)."""
+        if any(r.verified is False for r in self.entries.values()):
+            return None
         p, o, b = (self.objective(e) for e in (PASSIVE, OPEN_LOOP, FEEDBACK))
         if p is None or o is None or b is None or p == o:
             return None

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from suspopt.records.codec import FORMAT, Node, Record
+from suspopt.records.codesign import CodesignStudy
 from suspopt.records.compare import CompareStudy
 from suspopt.records.coupling import CouplingStudy
 from suspopt.records.pareto import ParetoFront
@@ -29,6 +30,7 @@ DOCUMENTS: dict[str, tuple[type[Record], str]] = {
     'compare': (CompareStudy, 'compare.json'),
     'coupling': (CouplingStudy, 'coupling.json'),
     'spectral': (SpectralRecord, 'spectral.json'),
+    'codesign': (CodesignStudy, 'codesign.json'),
 }
 
 

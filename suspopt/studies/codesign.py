@@ -18,14 +18,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
+from pathlib import Path
 from typing import Any
 
 from suspopt.errors import ConfigError
 from suspopt.models.design import GAIN_KINDS, design_kind
+from suspopt.output.roads import keep_study_inputs
+from suspopt.output.rundir import RunDirectory, write_record
 from suspopt.records.codesign import FEEDBACK, OPEN_LOOP, PASSIVE, CodesignStudy
 from suspopt.records.solve import SolveRecord
 from suspopt.spec import StudyConfig, config_from_dict
-from suspopt.studies.run import Progress, optimize
+from suspopt.studies.run import Interrupted, Progress, optimize
 from suspopt.transcription.problem import Scales
 from suspopt.verification.scales import resolve_scales
 
@@ -75,43 +79,80 @@ def run_codesign(
     progress: Progress | None = None,
     log: Callable[[str], None] | None = None,
     verify: bool = True,
+    out_dir: str | Path | RunDirectory | None = None,
 ) -> CodesignStudy:
     """The passive, open-loop and feedback co-design of ``config``'s controlled suspension
     in one model (``laws``: which of them), each verified by time marching. ``passive``:
-    an already solved passive optimum to reuse (same objective and scales)."""
+    an already solved passive optimum to reuse (same objective and scales). With
+    ``out_dir``, the study is written there as each solve comes in (``codesign.json``;
+    ``suspopt report DIR`` renders it); interrupted, a converged solve is kept."""
     say = log or (lambda msg: None)
     t0 = time.perf_counter()
+    controlled = {law: variant(config, law) for law in (OPEN_LOOP, FEEDBACK) if law in laws}
+    out = (
+        None
+        if out_dir is None
+        else out_dir.path
+        if isinstance(out_dir, RunDirectory)
+        else Path(out_dir)
+    )
+    data = CodesignStudy(
+        fidelity=fidelity,
+        control=config.control.kind,
+        config=keep_study_inputs(out, config) if out is not None else {},
+    )
+
+    def keep(law: str, solve: Callable[[], SolveRecord]) -> SolveRecord:
+        try:
+            data.entries[law] = solve()
+        except Interrupted as stop:
+            if out is not None and stop.result is not None and stop.result.success:
+                data.entries[law] = stop.result
+                write_record(out, data)
+            raise
+        if out is not None:
+            write_record(out, data)
+        return data.entries[law]
+
+    if out is not None:
+        write_record(out, data)
     scales = resolve_scales(config) if scales is None else scales
-    entries: dict[str, SolveRecord] = {}
     start: dict[str, float] = {}
     if PASSIVE in laws or passive is not None:
         if passive is None:
             say(f'{fidelity} fidelity: the passive optimum')
-            passive = optimize(
-                variant(config, PASSIVE),
-                fidelity,
-                scales=passive_scales(config, scales),
-                progress=progress,
-                verify=verify,
+            cfg = variant(config, PASSIVE)
+            own = passive_scales(config, scales)
+            passive = keep(
+                PASSIVE,
+                partial(optimize, cfg, fidelity, scales=own, progress=progress, verify=verify),
             )
-        entries[PASSIVE] = passive
+        else:
+            data.entries[PASSIVE] = passive
+            if out is not None:
+                write_record(out, data)
         if passive.success:
             start = dict(passive.design)
-    for law in (OPEN_LOOP, FEEDBACK):
-        if law not in laws:
-            continue
-        cfg = variant(config, law)
+    for law, cfg in controlled.items():
         first = {
             **cfg.design.initial(),
             **{k: v for k, v in start.items() if k in cfg.design.names},
         }
         say(f'{fidelity} fidelity: {config.control.kind} {law.replace("_", "-")} co-design')
-        entries[law] = optimize(
-            cfg, fidelity, start=first, scales=scales, progress=progress, verify=verify
+        keep(
+            law,
+            partial(
+                optimize,
+                cfg,
+                fidelity,
+                start=first,
+                scales=scales,
+                progress=progress,
+                verify=verify,
+            ),
         )
-    return CodesignStudy(
-        fidelity=fidelity,
-        kind=config.control.kind,
-        entries=entries,
-        wall_time_s=time.perf_counter() - t0,
-    )
+    data.wall_time_s = time.perf_counter() - t0
+    data.complete = True
+    if out is not None:
+        write_record(out, data)
+    return data

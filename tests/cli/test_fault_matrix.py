@@ -139,6 +139,7 @@ def study_files(tmp_path: Path) -> dict[str, Path]:
         ('reference', 'reference', ''),
         ('paper', 'paper', ''),
         ('robust', 'paper', SCENARIOS),
+        ('codesign', 'reference', '[control]\nkind = "active"\n'),
     ):
         files[name] = tmp_path / f'{name}.toml'
         files[name].write_text(TINY.format(normalization=normalization) + extra)
@@ -273,6 +274,7 @@ STUDIES = {
     'robust': (['robust'], 'robust', 'robust.json', False),
     'compare': (['compare', '--mechanisms', 'macpherson'], 'paper', 'compare.json', True),
     'coupling': (['coupling'], 'paper', 'coupling.json', False),
+    'codesign': (['codesign'], 'codesign', 'codesign.json', False),
 }
 
 

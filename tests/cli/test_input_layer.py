@@ -249,6 +249,7 @@ ARGVS = [
     ['pareto', '--points', '3', '--config', 'study.toml', '--out', 'out'],
     ['compare', '--mechanisms', 'double_wishbone,macpherson+double_wishbone', '--out', 'o'],
     ['robust', '--config', 'study.toml', '--out', 'out'],
+    ['codesign', '--config', 'study.toml', '--fidelity', 'mixed', '--out', 'out'],
     ['kinematics', 'mechanism.toml', '--travel=-0.05,0.05', '--points', '5', '--k', '3e4'],
     ['init', 'new.toml', '--model', 'full_car'],
     ['report', 'out'],

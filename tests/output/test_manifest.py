@@ -22,6 +22,7 @@ RENDERERS = {
     'compare': ('suspopt.output.compare_report', 'render_compare'),
     'coupling': ('suspopt.output.coupling_report', 'render_coupling'),
     'spectral': ('suspopt.output.spectral_report', 'render_spectral'),
+    'codesign': ('suspopt.output.codesign_report', 'render_codesign'),
 }
 
 
