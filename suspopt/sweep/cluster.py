@@ -118,6 +118,32 @@ def _settings(retries: int, worker_start: str) -> dict[str, Any]:
     }
 
 
+#: attempts at starting a local cluster: a nanny can fail to start on a loaded machine
+#: (seen in the suite beside another busy process), and a second attempt then succeeds
+CLUSTER_ATTEMPTS = 2
+
+
+def _local_cluster(local_cluster: Any, n: int, say: Callable[[str], None]) -> Any:
+    """A LocalCluster of ``n`` single-threaded worker processes, tried
+    :data:`CLUSTER_ATTEMPTS` times; a SuspoptError naming the last cause if none starts."""
+    for attempt in range(1, CLUSTER_ATTEMPTS + 1):
+        try:
+            return local_cluster(
+                n_workers=n,
+                processes=True,
+                threads_per_worker=1,
+                dashboard_address=None,
+                scheduler_kwargs=NO_DASHBOARD,
+                silence_logs=logging.CRITICAL,
+                preload=['suspopt.sweep'],
+            )
+        except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
+            if attempt == CLUSTER_ATTEMPTS:
+                raise SuspoptError(f'cannot start a local Dask cluster: {err}') from err
+            say(f'local cluster did not start ({err}); trying again')
+    raise AssertionError('unreachable')
+
+
 def start_cluster(
     workers: int | None,
     scheduler: str | None,
@@ -139,17 +165,7 @@ def start_cluster(
         if worker_start == 'fork':  # the children's garbage collector leaves what this
             gc.freeze()  # process had alone (no copy-on-write of its pages)
         try:
-            cluster = LocalCluster(
-                n_workers=n,
-                processes=True,
-                threads_per_worker=1,
-                dashboard_address=None,
-                scheduler_kwargs=NO_DASHBOARD,
-                silence_logs=logging.CRITICAL,
-                preload=['suspopt.sweep'],
-            )
-        except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
-            raise SuspoptError(f'cannot start a local Dask cluster: {err}') from None
+            cluster = _local_cluster(LocalCluster, n, say)
         finally:
             if worker_start == 'fork':
                 gc.unfreeze()
