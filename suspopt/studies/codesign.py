@@ -69,6 +69,12 @@ def passive_scales(config: StudyConfig, scales: Scales) -> Scales:
     return tuple({t: s[t] for t in terms} for s in scales)
 
 
+def _directory(out_dir: str | Path | RunDirectory | None) -> Path | None:
+    if out_dir is None:
+        return None
+    return out_dir.path if isinstance(out_dir, RunDirectory) else Path(out_dir)
+
+
 def run_codesign(
     config: StudyConfig,
     fidelity: str = 'low',
@@ -89,20 +95,12 @@ def run_codesign(
     say = log or (lambda msg: None)
     t0 = time.perf_counter()
     controlled = {law: variant(config, law) for law in (OPEN_LOOP, FEEDBACK) if law in laws}
-    out = (
-        None
-        if out_dir is None
-        else out_dir.path
-        if isinstance(out_dir, RunDirectory)
-        else Path(out_dir)
-    )
-    data = CodesignStudy(
-        fidelity=fidelity,
-        control=config.control.kind,
-        config=keep_study_inputs(out, config) if out is not None else {},
-    )
+    out = _directory(out_dir)
+    inputs = keep_study_inputs(out, config) if out is not None else {}
+    data = CodesignStudy(fidelity=fidelity, control=config.control.kind, config=inputs)
 
     def keep(law: str, solve: Callable[[], SolveRecord]) -> SolveRecord:
+        """One law's solve, written as it comes in; interrupted, kept if it converged."""
         try:
             data.entries[law] = solve()
         except Interrupted as stop:
