@@ -41,7 +41,10 @@ def codesign_markdown(data: CodesignStudy) -> str:
             f'{res.iterations} | {design} |'
         )
     share = data.recovered()
-    if share is not None:
+    unverified = [law for law, r in data.entries.items() if r.verified is False]
+    if share is not None and unverified:  # e.g. an unstable closed loop: meaningless
+        lines += ['', 'No share of the bound is given: a law is NOT verified.']
+    elif share is not None:
         lines += [
             '',
             f'The feedback law realizes **{100 * share:.0f} %** of the gain of the open-loop '
