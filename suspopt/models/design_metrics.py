@@ -303,3 +303,51 @@ class RideFrequencyComp(_DesignComponent):
         f, V, B = self._modes(inputs)
         for i, name in enumerate(self.frequency_names()):
             partials[name, 'k_ride'] = (V[:, i] @ B) ** 2 / (8.0 * np.pi**2 * f[i])
+
+
+# ---------------------------------------------------------------------------- closed loop
+def decay_rate(A: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """The decay rate of the slowest mode of ``x' = A x``, ``σ = -max Re λ(A)`` [1/s]
+    (positive: asymptotically stable), with the right and left eigenvectors ``x``, ``y``
+    of that eigenvalue (``A x = λ x``, ``yᴴ A = λ yᴴ``) for its derivative
+    ``dσ/dp = -Re(yᴴ (dA/dp) x / yᴴ x)`` (a simple eigenvalue's; Lancaster, *On
+    eigenvalues of matrices dependent on a parameter*, Numer. Math. 6, 1964)."""
+    import scipy.linalg
+
+    w, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+    k = int(np.argmax(w.real))
+    return float(-w[k].real), vr[:, k], vl[:, k]
+
+
+class DecayRateComp(_DesignComponent):
+    """The decay rate of the slowest mode of the low-fidelity closed loop at the design
+    (:func:`decay_rate`): its state matrix affine in the design variables, ``A(p) = A0 +
+    Σ_i p_i A_i`` (:func:`suspopt.models.linear.affine_linearize`), read off the vehicle
+    assembly. Inputs: the design variables by name."""
+
+    def initialize(self) -> None:
+        self.options.declare('design', types=tuple, desc='design-variable names, in order')
+        self.options.declare('units', types=tuple, desc='their units')
+        self.options.declare('A0', types=np.ndarray, desc='A at zero design')
+        self.options.declare('dA', types=np.ndarray, desc='dA/dp_i, (n_design, n, n)')
+
+    def setup(self) -> None:
+        o = self.options
+        for name, unit in zip(o['design'], o['units']):
+            self.add_input(name, units=unit, desc='design variable')
+            self.declare_partials('decay', name, rows=[0], cols=[0])
+        self.add_output('decay', units='1/s', desc='decay rate of the slowest mode')
+
+    def _A(self, inputs: Mapping[str, Any]) -> np.ndarray:
+        o = self.options
+        p = np.array([float(np.asarray(inputs[n]).ravel()[0]) for n in o['design']])
+        return o['A0'] + np.tensordot(p, o['dA'], axes=1)
+
+    def evaluate(self, inputs: Mapping[str, Any]) -> dict[str, np.ndarray]:
+        return {'decay': np.atleast_1d(decay_rate(self._A(inputs))[0])}
+
+    def compute_partials(self, inputs, partials) -> None:
+        _, x, y = decay_rate(self._A(inputs))
+        scale = np.conj(y) @ x
+        for name, dA in zip(self.options['design'], self.options['dA']):
+            partials['decay', name] = -float((np.conj(y) @ dA @ x / scale).real)

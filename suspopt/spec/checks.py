@@ -319,6 +319,11 @@ def _constraint_checks(cfg: StudyConfig) -> list[str]:
         if not (rg.min or rg.max or rg.front_share):
             errs.add('constraints.roll_gradient', 'give min, max [deg/g] and/or front_share')
         errs.extend(_band(rg.front_share, 'constraints.roll_gradient.front_share', 0.0, 1.0, ''))
+    if not c.stability.margin >= 0.0:
+        errs.add(
+            'constraints.stability.margin',
+            f'must be >= 0 [1/s] (a decay rate), got {c.stability.margin:g}',
+        )
     rf = c.ride_frequency
     if rf.enabled:
         if not (rf.heave or rf.pitch):

@@ -586,6 +586,21 @@ class RideFrequencyConstraint:
 
 
 @dataclass(frozen=True)
+class StabilityConstraint:
+    """An active suspension's feedback law keeps the car stable: the slowest mode of the
+    closed loop decays at least ``margin`` fast (low fidelity; a linear law, no force or
+    power bound). On by default: the collocation can hide an unstable closed loop."""
+
+    enabled: bool = field(
+        default=True, metadata={'doc': 'false: no stability constraint on a feedback law'}
+    )
+    margin: float = field(
+        default=0.5,
+        metadata={'doc': 'least decay rate of the slowest mode, -max Re λ [1/s]'},
+    )
+
+
+@dataclass(frozen=True)
 class ConstraintsConfig:
     """Engineering constraints of the design (``docs/metrics.md``): each applies when its
     table is given."""
@@ -594,6 +609,7 @@ class ConstraintsConfig:
     tyre_contact: TyreContactConstraint = field(default_factory=TyreContactConstraint)
     roll_gradient: RollGradientConstraint = field(default_factory=RollGradientConstraint)
     ride_frequency: RideFrequencyConstraint = field(default_factory=RideFrequencyConstraint)
+    stability: StabilityConstraint = field(default_factory=StabilityConstraint)
 
 
 @dataclass(frozen=True)

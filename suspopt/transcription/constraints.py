@@ -30,6 +30,7 @@ from suspopt.errors import ConfigError
 from suspopt.models.design import DESIGN_UNITS, design_id, design_kind
 from suspopt.models.design_metrics import (
     AxleRollStiffnessComp,
+    DecayRateComp,
     RideFrequencyComp,
     RideRateComp,
     RollGradientComp,
@@ -113,7 +114,7 @@ def path_constraints(config: StudyConfig) -> tuple[PathConstraint, ...]:
     return tuple(out)
 
 
-def bounds(config: StudyConfig) -> tuple[Bound, ...]:
+def bounds(config: StudyConfig, fidelity: str = 'low') -> tuple[Bound, ...]:
     """Every side of every engineering constraint of ``config``, path ones first."""
     c = config.constraints
     out = []
@@ -204,7 +205,37 @@ def bounds(config: StudyConfig) -> tuple[Bound, ...]:
                         label=f'{mode} frequency',
                     )
                 )
+    if stability_applies(config, fidelity):
+        m = c.stability.margin
+        out.append(
+            Bound(
+                'stability.margin',
+                'design',
+                'decay',
+                False,
+                m,
+                '1/s',
+                max(m, 1.0),
+                label='decay rate of the slowest closed-loop mode',
+            )
+        )
     return tuple(out)
+
+
+def stability_applies(config: StudyConfig, fidelity: str = 'low') -> bool:
+    """The closed-loop stability constraint applies to an active suspension under a
+    linear feedback law (no force or power bound) in the low-fidelity model: the only
+    closed loop of suspopt that can be unstable (a semi-active damper only dissipates)
+    and that has state-space matrices (``docs/codesign.md``)."""
+    k = config.control
+    return (
+        fidelity == 'low'
+        and config.constraints.stability.enabled
+        and k.kind == 'active'
+        and k.law == 'feedback'
+        and not k.force_max
+        and not k.power_max
+    )
 
 
 def structure(config: StudyConfig) -> list[str]:
@@ -281,6 +312,19 @@ def roll_arm(config: StudyConfig) -> float:
     )
 
 
+def _decay_rate_comp(config: StudyConfig) -> DecayRateComp:
+    """The closed loop's decay rate from the low-fidelity assembly's matrices, affine in
+    the design (exact: the model is linear in its states and its design)."""
+    from suspopt.models.linear import affine_linearize
+    from suspopt.transcription.vehicle import vehicle_assembly
+
+    names = config.design_names()
+    assembly = vehicle_assembly(config, config.scenarios()[0], 'low')
+    lin = affine_linearize(assembly, (), names)
+    units = tuple(DESIGN_UNITS[design_kind(n)] for n in names)
+    return DecayRateComp(design=names, units=units, A0=lin.base.A, dA=lin.dA)
+
+
 class DesignMetricsGroup(om.Group):
     """The design-only metrics of a vehicle from its design variables: the settings per
     corner, the wheel rates, and from them the roll stiffness per axle, the roll gradient
@@ -289,6 +333,7 @@ class DesignMetricsGroup(om.Group):
     def initialize(self) -> None:
         self.options.declare('config', types=StudyConfig, recordable=False)
         self.options.declare('rates', types=WheelRates, recordable=False)
+        self.options.declare('fidelity', default='low', values=('low', 'mixed'))
 
     def setup(self) -> None:
         config, rates = self.options['config'], self.options['rates']
@@ -318,6 +363,8 @@ class DesignMetricsGroup(om.Group):
                 promotes=['*'],
             )
             self.add_subsystem('roll_share', RollStiffnessShareComp(), promotes=['*'])
+        if stability_applies(config, self.options['fidelity']):
+            self.add_subsystem('decay_rate', _decay_rate_comp(config), promotes=['*'])
         if c.ride_frequency.enabled:
             self.add_subsystem('ride_rate', RideRateComp(k_T=k_T), promotes=['*'])
             self.add_subsystem(
@@ -369,13 +416,13 @@ def add_design_constraints(
 ) -> bool:
     """Add the design-only metrics of ``config`` to ``model`` (as :data:`GROUP`, fed by
     the trajectory's design parameters) and constrain them; False if there are none."""
-    design = [b for b in bounds(config) if b.kind == 'design']
+    design = [b for b in bounds(config, fidelity) if b.kind == 'design']
     if not design:
         return False
     rates = wheel_rates(config, fidelity, modules)
     if config.constraints.roll_gradient.enabled:
         check_roll_stability(config, rates)
-    model.add_subsystem(GROUP, DesignMetricsGroup(config=config, rates=rates))
+    model.add_subsystem(GROUP, DesignMetricsGroup(config=config, rates=rates, fidelity=fidelity))
     for name in config.design_names():  # the source of the trajectory's parameter
         source = f'traj.parameters:{name}'
         model.connect(source, f'{GROUP}.{name}')

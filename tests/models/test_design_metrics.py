@@ -13,12 +13,14 @@ from openmdao.utils.assert_utils import assert_check_partials
 from suspopt.driver.structure import declared_subjacs
 from suspopt.models.design_metrics import (
     AxleRollStiffnessComp,
+    DecayRateComp,
     RideFrequencyComp,
     RideRateComp,
     RollGradientComp,
     RollStiffnessShareComp,
     WheelRateComp,
     axle_roll_stiffness,
+    decay_rate,
     ride_modes,
     roll_gradient,
     roll_moment_arm,
@@ -41,7 +43,38 @@ def _problem(comp: om.ExplicitComponent, values: dict[str, np.ndarray]) -> om.Pr
     return p
 
 
+def _active_quarter_car():
+    """An active quarter car under linear feedback (the default quarter car's masses and
+    tyre), its state matrix affine in the design."""
+    from suspopt.models.linear import affine_linearize
+    from suspopt.spec import config_from_dict
+    from suspopt.transcription.vehicle import vehicle_assembly
+
+    cfg = config_from_dict(
+        {
+            'vehicle': {'model': 'quarter_car'},
+            'control': {'kind': 'active', 'law': 'feedback'},
+            'maneuver': {'speed': 10.0, 'horizon': 1.0},
+            'road': {'profile': 'bump', 'start': 2.0, 'length': 2.0, 'height': 0.04},
+        }
+    )
+    names = cfg.design_names()
+    lin = affine_linearize(vehicle_assembly(cfg, cfg.scenarios()[0], 'low'), (), names)
+    return cfg, names, lin
+
+
+def _decay_case():
+    cfg, names, lin = _active_quarter_car()
+    units = ('N/m', 'N*s/m', 'N*s/m', 'N*s/m', 'N/m', 'N*s/m')
+    values = dict(zip(names, (2.4e4, 1400.0, 2500.0, 3000.0, -8000.0, -1500.0)))
+    return (
+        lambda: DecayRateComp(design=names, units=units, A0=lin.base.A, dA=lin.dA),
+        {n: np.array([x]) for n, x in values.items()},
+    )
+
+
 CASES = {
+    'closed-loop decay rate': _decay_case(),
     'wheel rate': (
         lambda: WheelRateComp(slope=np.array([0.94, 0.94, 0.30, 0.30]), offset=np.full(4, 50.0)),
         {'k_S': RNG.uniform(1e4, 6e4, 4)},
@@ -214,3 +247,31 @@ def test_modes_are_named_by_their_motion_not_their_order(inertia):
 def test_quarter_car_heave_frequency():
     f = ride_modes(np.array([18000.0]), np.zeros(1), 325.0, 0.0, False)[0]
     assert f == pytest.approx([math.sqrt(18000.0 / 325.0) / (2 * math.pi)], rel=1e-14)
+
+
+def test_decay_rate_is_the_quarter_cars_characteristic_polynomial():
+    """The quarter car under ``u = -g_sky v_M + g_gnd v_W + g_tr s + g_rt (v_W - v_M)``:
+    with ``k = k_S + g_tr``, ``a = c_S + g_rt + g_sky``, ``b = c_S + g_rt + g_gnd``, its
+    characteristic polynomial is ``m M s⁴ + (m b + M a) s³ + (m (k + k_T) + M k) s² +
+    a k_T s + k k_T`` (M sprung, m unsprung; derived by hand, sharing no code with the
+    assembly): the decay rate is minus its roots' largest real part, over stable and
+    unstable designs — the benchmark's feedback optimum without the constraint among
+    them (a negative spring and damper: unstable)."""
+    cfg, names, lin = _active_quarter_car()
+    v = cfg.vehicle
+    M, m, k_T = v.chassis_mass, v.front.wheel_mass, v.front.tyre_stiffness
+    rng = np.random.default_rng(3)
+    designs = [
+        rng.uniform([1e4, 500, 0, 0, -5e4, -5e3], [4e4, 3e3, 5e3, 5e3, 2e4, 2e3]) for _ in range(20)
+    ]
+    designs.append(np.array([176.5, 1700.0, 0.0023, 5004.0, -26430.0, -5000.0]))
+    signs = set()
+    for p in designs:
+        k, c = p[0] + p[4], p[1] + p[5]
+        a, b = c + p[2], c + p[3]
+        roots = np.roots([M * m, M * b + m * a, M * (k + k_T) + m * k, a * k_T, k * k_T])
+        sigma = decay_rate(lin.at(dict(zip(names, p))).A)[0]
+        assert sigma == pytest.approx(-max(roots.real), rel=1e-9, abs=1e-9)
+        signs.add(sigma > 0)
+    assert signs == {True, False}
+    assert sigma < -10.0  # the benchmark's unconstrained feedback optimum diverges

@@ -29,6 +29,7 @@ CASES = [
     ({}, {'ride_frequency': {'heave': [1.5, 1.0]}}, 'constraints.ride_frequency.heave'),
     ({}, {'ride_frequency': {'heave': [-1.0, 1.0]}}, 'constraints.ride_frequency.heave'),
     ({**FULL, 'cg_height': 0.0}, {'roll_gradient': {'max': 4.0}}, 'vehicle.cg_height'),
+    ({}, {'stability': {'margin': -1.0}}, 'constraints.stability.margin'),
 ]
 
 

@@ -134,3 +134,53 @@ def test_an_evaluation_reports_the_constraints_a_fixed_design_violates():
     assert rec.success, rec.status
     (roll,) = [c for c in rec.constraints if c.name == 'roll_gradient.max']
     assert roll.value > roll.bound
+
+
+def _controlled(control: dict, constraints: dict | None = None):
+    return config_from_dict(
+        {
+            'vehicle': {'model': 'quarter_car'},
+            'control': control,
+            'constraints': constraints or {},
+            'maneuver': {'speed': 10.0, 'horizon': 1.0},
+            'road': {'profile': 'bump', 'start': 2.0, 'length': 2.0, 'height': 0.04},
+        }
+    )
+
+
+@pytest.mark.parametrize(
+    ('control', 'constraints', 'fidelity', 'applies'),
+    [
+        ({'kind': 'active', 'law': 'feedback'}, None, 'low', True),
+        ({'kind': 'active', 'law': 'feedback'}, None, 'mixed', False),
+        ({'kind': 'active', 'law': 'feedback'}, {'stability': {'enabled': False}}, 'low', False),
+        ({'kind': 'active', 'law': 'feedback', 'force_max': 2000.0}, None, 'low', False),
+        ({'kind': 'active', 'law': 'open_loop'}, None, 'low', False),
+        (
+            {'kind': 'semi_active', 'law': 'feedback', 'c_min': 0.0, 'c_max': 3000.0},
+            None,
+            'low',
+            False,
+        ),
+    ],
+)
+def test_the_stability_constraint_binds_only_a_linear_active_feedback_law(
+    control, constraints, fidelity, applies
+):
+    """The only closed loop that can be unstable and has state-space matrices: an active
+    suspension under a linear feedback law in the low-fidelity model (on by default)."""
+    cfg = _controlled(control, constraints)
+    names = [b.name for b in bounds(cfg, fidelity)]
+    assert ('stability.margin' in names) is applies
+
+
+def test_an_unstable_feedback_design_reports_its_negative_decay_rate():
+    """Evaluated at the benchmark's unconstrained feedback optimum (a negative spring and
+    damper in the strut), the design-only value names the instability."""
+    from suspopt.studies.run import evaluate
+
+    cfg = _controlled({'kind': 'active', 'law': 'feedback'})
+    bad = dict(zip(cfg.design_names(), (176.5, 1700.0, 0.0023, 5004.0, -26430.0, -5000.0)))
+    rec = evaluate(cfg, 'low', bad, verify=False)
+    (v,) = [v for v in rec.constraints if v.name == 'stability.margin']
+    assert v.value < -10.0 and v.margin < 0.0 and v.units == '1/s'
