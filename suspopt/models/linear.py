@@ -73,10 +73,10 @@ class AffineLinearModel:
 class _Probe:
     """The assembly without its road block: the road heights are an input."""
 
-    def __init__(self, assembly: VehicleAssembly, outputs: Sequence[str]):
-        if assembly.fidelity != 'low':
+    def __init__(self, assembly: VehicleAssembly, outputs: Sequence[str], linear: bool = True):
+        if linear and assembly.fidelity != 'low':
             raise NonlinearModelError('only the low-fidelity vehicle is linear (fidelity "low")')
-        if assembly.spec.has_curves:
+        if linear and assembly.spec.has_curves:
             raise NonlinearModelError(
                 'the suspension has curves (docs/nonlinear_hardware.md): the vehicle is not linear'
             )
@@ -157,6 +157,35 @@ def linearize(
         outputs=tuple(labels),
         signals=signals,
     )
+
+
+def rest_jacobian(assembly: VehicleAssembly, design: Mapping[str, float]) -> np.ndarray:
+    """``A = ∂f/∂x`` of any ``assembly`` (the mixed fidelity's too) at rest on a flat road
+    at ``design``, by central differences of steps ``1e-6`` of each state's reference
+    (every probe in one vectorized call)."""
+    probe = _Probe(assembly, (), linear=False)
+    refs = np.concatenate([np.full(size, st.ref) for st, size in zip(assembly.states, probe.sizes)])
+    step = 1e-6 * refs
+    X = np.concatenate([np.diag(step), -np.diag(step)], axis=1)
+    rates, _ = probe(X, np.zeros((probe.nc, X.shape[1])), design)
+    return (rates[:, : probe.n] - rates[:, probe.n :]) / (2.0 * step)
+
+
+def affine_rest_jacobian(
+    assembly: VehicleAssembly, design: Mapping[str, float], names: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """``A(p) = A0 + Σ_i p_i A_i`` of :func:`rest_jacobian` in the design variables
+    ``names``, from its values at ``design`` and at each variable moved by a tenth of its
+    value (exact where the forces are linear in the design, as a spring's in its rate and
+    a feedback force in its gains at any linkage geometry). Returns ``A0, dA``."""
+    base = rest_jacobian(assembly, design)
+    dA = []
+    for n in names:
+        h = 0.1 * max(abs(float(design[n])), 1.0)
+        dA.append((rest_jacobian(assembly, {**design, n: float(design[n]) + h}) - base) / h)
+    slopes = np.array(dA).reshape((len(names),) + base.shape)
+    p = np.array([float(design[n]) for n in names])
+    return base - np.tensordot(p, slopes, axes=1), slopes
 
 
 def check_linear(

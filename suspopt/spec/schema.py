@@ -588,14 +588,14 @@ class RideFrequencyConstraint:
 @dataclass(frozen=True)
 class StabilityConstraint:
     """An active suspension's feedback law keeps the car stable: the slowest mode of the
-    closed loop decays at least ``margin`` fast (low fidelity; a linear law, no force or
-    power bound). On by default: the collocation can hide an unstable closed loop."""
+    closed loop decays at least ``margin`` fast (a linear law: no force or power bound).
+    On by default: the collocation can hide an unstable closed loop."""
 
     enabled: bool = field(
         default=True, metadata={'doc': 'false: no stability constraint on a feedback law'}
     )
     margin: float = field(
-        default=0.5,
+        default=0.0,
         metadata={'doc': 'least decay rate of the slowest mode, -max Re λ [1/s]'},
     )
 

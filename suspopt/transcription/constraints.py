@@ -114,7 +114,7 @@ def path_constraints(config: StudyConfig) -> tuple[PathConstraint, ...]:
     return tuple(out)
 
 
-def bounds(config: StudyConfig, fidelity: str = 'low') -> tuple[Bound, ...]:
+def bounds(config: StudyConfig) -> tuple[Bound, ...]:
     """Every side of every engineering constraint of ``config``, path ones first."""
     c = config.constraints
     out = []
@@ -205,7 +205,7 @@ def bounds(config: StudyConfig, fidelity: str = 'low') -> tuple[Bound, ...]:
                         label=f'{mode} frequency',
                     )
                 )
-    if stability_applies(config, fidelity):
+    if stability_applies(config):
         m = c.stability.margin
         out.append(
             Bound(
@@ -222,15 +222,14 @@ def bounds(config: StudyConfig, fidelity: str = 'low') -> tuple[Bound, ...]:
     return tuple(out)
 
 
-def stability_applies(config: StudyConfig, fidelity: str = 'low') -> bool:
+def stability_applies(config: StudyConfig) -> bool:
     """The closed-loop stability constraint applies to an active suspension under a
-    linear feedback law (no force or power bound) in the low-fidelity model: the only
-    closed loop of suspopt that can be unstable (a semi-active damper only dissipates)
-    and that has state-space matrices (``docs/codesign.md``)."""
+    linear feedback law (no force or power bound), in either model: the only closed loop
+    of suspopt that can be unstable (a semi-active damper only dissipates;
+    ``docs/codesign.md``)."""
     k = config.control
     return (
-        fidelity == 'low'
-        and config.constraints.stability.enabled
+        config.constraints.stability.enabled
         and k.kind == 'active'
         and k.law == 'feedback'
         and not k.force_max
@@ -312,17 +311,26 @@ def roll_arm(config: StudyConfig) -> float:
     )
 
 
-def _decay_rate_comp(config: StudyConfig) -> DecayRateComp:
-    """The closed loop's decay rate from the low-fidelity assembly's matrices, affine in
-    the design (exact: the model is linear in its states and its design)."""
-    from suspopt.models.linear import affine_linearize
+def _decay_rate_comp(
+    config: StudyConfig, fidelity: str, modules: Mapping[str, Any] | None
+) -> DecayRateComp:
+    """The closed loop's decay rate from the assembly's state matrix at rest, affine in
+    the design: read off the low-fidelity model exactly, or by central differences of the
+    mixed model (each linkage reduced to its travel) at the initial design."""
+    from suspopt.models.linear import affine_linearize, affine_rest_jacobian
+    from suspopt.multibody.reduced import reduced_modules
     from suspopt.transcription.vehicle import vehicle_assembly
 
     names = config.design_names()
-    assembly = vehicle_assembly(config, config.scenarios()[0], 'low')
-    lin = affine_linearize(assembly, (), names)
     units = tuple(DESIGN_UNITS[design_kind(n)] for n in names)
-    return DecayRateComp(design=names, units=units, A0=lin.base.A, dA=lin.dA)
+    scenario = config.scenarios()[0]
+    if fidelity == 'low':
+        lin = affine_linearize(vehicle_assembly(config, scenario, 'low'), (), names)
+        return DecayRateComp(design=names, units=units, A0=lin.base.A, dA=lin.dA)
+    reduced = reduced_modules(dict(modules or {}))
+    assembly = vehicle_assembly(config, scenario, fidelity, reduced)
+    A0, dA = affine_rest_jacobian(assembly, config.design.initial(), names)
+    return DecayRateComp(design=names, units=units, A0=A0, dA=dA)
 
 
 class DesignMetricsGroup(om.Group):
@@ -334,6 +342,7 @@ class DesignMetricsGroup(om.Group):
         self.options.declare('config', types=StudyConfig, recordable=False)
         self.options.declare('rates', types=WheelRates, recordable=False)
         self.options.declare('fidelity', default='low', values=('low', 'mixed'))
+        self.options.declare('modules', default=None, recordable=False)
 
     def setup(self) -> None:
         config, rates = self.options['config'], self.options['rates']
@@ -363,8 +372,9 @@ class DesignMetricsGroup(om.Group):
                 promotes=['*'],
             )
             self.add_subsystem('roll_share', RollStiffnessShareComp(), promotes=['*'])
-        if stability_applies(config, self.options['fidelity']):
-            self.add_subsystem('decay_rate', _decay_rate_comp(config), promotes=['*'])
+        if stability_applies(config):
+            comp = _decay_rate_comp(config, self.options['fidelity'], self.options['modules'])
+            self.add_subsystem('decay_rate', comp, promotes=['*'])
         if c.ride_frequency.enabled:
             self.add_subsystem('ride_rate', RideRateComp(k_T=k_T), promotes=['*'])
             self.add_subsystem(
@@ -416,13 +426,15 @@ def add_design_constraints(
 ) -> bool:
     """Add the design-only metrics of ``config`` to ``model`` (as :data:`GROUP`, fed by
     the trajectory's design parameters) and constrain them; False if there are none."""
-    design = [b for b in bounds(config, fidelity) if b.kind == 'design']
+    design = [b for b in bounds(config) if b.kind == 'design']
     if not design:
         return False
     rates = wheel_rates(config, fidelity, modules)
     if config.constraints.roll_gradient.enabled:
         check_roll_stability(config, rates)
-    model.add_subsystem(GROUP, DesignMetricsGroup(config=config, rates=rates, fidelity=fidelity))
+    model.add_subsystem(
+        GROUP, DesignMetricsGroup(config=config, rates=rates, fidelity=fidelity, modules=modules)
+    )
     for name in config.design_names():  # the source of the trajectory's parameter
         source = f'traj.parameters:{name}'
         model.connect(source, f'{GROUP}.{name}')

@@ -205,7 +205,7 @@ class VehicleProblem:
             for i, sc in enumerate(self.scenarios):
                 add_path_constraints(p.model, f'traj.s{i}.rhs_all', path, sc, config.layout().n)
             add_design_constraints(p.model, config, fidelity, self.modules)
-            self.bounds = bounds(config, fidelity)
+            self.bounds = bounds(config)
             for i in range(len(self.scenarios)):
                 p.model.add_subsystem(
                     f'quadrature_{i}',

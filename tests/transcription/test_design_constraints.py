@@ -149,28 +149,26 @@ def _controlled(control: dict, constraints: dict | None = None):
 
 
 @pytest.mark.parametrize(
-    ('control', 'constraints', 'fidelity', 'applies'),
+    ('control', 'constraints', 'applies'),
     [
-        ({'kind': 'active', 'law': 'feedback'}, None, 'low', True),
-        ({'kind': 'active', 'law': 'feedback'}, None, 'mixed', False),
-        ({'kind': 'active', 'law': 'feedback'}, {'stability': {'enabled': False}}, 'low', False),
-        ({'kind': 'active', 'law': 'feedback', 'force_max': 2000.0}, None, 'low', False),
-        ({'kind': 'active', 'law': 'open_loop'}, None, 'low', False),
+        ({'kind': 'active', 'law': 'feedback'}, None, True),
+        ({'kind': 'active', 'law': 'feedback'}, {'stability': {'enabled': False}}, False),
+        ({'kind': 'active', 'law': 'feedback', 'force_max': 2000.0}, None, False),
+        ({'kind': 'active', 'law': 'open_loop'}, None, False),
         (
             {'kind': 'semi_active', 'law': 'feedback', 'c_min': 0.0, 'c_max': 3000.0},
             None,
-            'low',
             False,
         ),
     ],
 )
 def test_the_stability_constraint_binds_only_a_linear_active_feedback_law(
-    control, constraints, fidelity, applies
+    control, constraints, applies
 ):
-    """The only closed loop that can be unstable and has state-space matrices: an active
-    suspension under a linear feedback law in the low-fidelity model (on by default)."""
+    """The only closed loop that can be unstable: an active suspension under a linear
+    feedback law (on by default, in both models)."""
     cfg = _controlled(control, constraints)
-    names = [b.name for b in bounds(cfg, fidelity)]
+    names = [b.name for b in bounds(cfg)]
     assert ('stability.margin' in names) is applies
 
 
@@ -184,3 +182,44 @@ def test_an_unstable_feedback_design_reports_its_negative_decay_rate():
     rec = evaluate(cfg, 'low', bad, verify=False)
     (v,) = [v for v in rec.constraints if v.name == 'stability.margin']
     assert v.value < -10.0 and v.margin < 0.0 and v.units == '1/s'
+
+
+def test_the_rest_jacobian_by_differences_is_the_exact_linear_one():
+    """The central-difference Jacobian at rest (any fidelity) against the low-fidelity
+    model's exact state matrix (read at unit states: another route)."""
+    from suspopt.models.linear import linearize, rest_jacobian
+    from suspopt.transcription.vehicle import vehicle_assembly
+
+    cfg = _controlled({'kind': 'active', 'law': 'feedback'})
+    asm = vehicle_assembly(cfg, cfg.scenarios()[0], 'low')
+    design = dict(zip(cfg.design_names(), (2.4e4, 1400.0, 2500.0, 3000.0, -8000.0, -1500.0)))
+    exact = linearize(asm, design).A
+    np.testing.assert_allclose(rest_jacobian(asm, design), exact, rtol=1e-6, atol=1e-6)
+
+
+def test_the_mixed_models_closed_loop_is_affine_in_the_design():
+    """The mixed model's state matrix at rest (each linkage reduced to its travel) is
+    affine in the spring, damper and feedback gains at any geometry: the affine model
+    read at the initial design predicts it at another design."""
+    from suspopt.models.linear import affine_rest_jacobian, rest_jacobian
+    from suspopt.multibody.reduced import reduced_modules
+    from suspopt.transcription.vehicle import multibody_modules, vehicle_assembly
+
+    cfg = config_from_dict(
+        {
+            'control': {'kind': 'active', 'law': 'feedback'},
+            'maneuver': {'speed': 10.0, 'horizon': 0.5},
+        }
+    )
+    asm = vehicle_assembly(
+        cfg, cfg.scenarios()[0], 'mixed', reduced_modules(multibody_modules(cfg))
+    )
+    names = cfg.design_names()
+    A0, dA = affine_rest_jacobian(asm, cfg.design.initial(), names)
+    other = {
+        n: v * (1.3 if i % 2 else 0.8) + 100.0
+        for i, (n, v) in enumerate(cfg.design.initial().items())
+    }
+    predicted = A0 + np.tensordot([other[n] for n in names], dA, axes=1)
+    actual = rest_jacobian(asm, other)
+    np.testing.assert_allclose(predicted, actual, rtol=1e-5, atol=1e-5 * np.abs(actual).max())
