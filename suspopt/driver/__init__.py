@@ -4,9 +4,10 @@ IPOPT driver (public OpenMDAO API; the one module with private names is
 
 from suspopt.driver.ipopt import (
     IPOPT_STATUS,
+    SUCCESS,
     IpoptDriver,
     IterationInfo,
     ipopt_option_problems,
 )
 
-__all__ = ['IPOPT_STATUS', 'IpoptDriver', 'IterationInfo', 'ipopt_option_problems']
+__all__ = ['IPOPT_STATUS', 'SUCCESS', 'IpoptDriver', 'IterationInfo', 'ipopt_option_problems']

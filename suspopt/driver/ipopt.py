@@ -39,8 +39,8 @@ public metadata and drives the model by public calls (``run_solve_nonlinear``, a
   :class:`~suspopt.errors.RunError` naming the file;
 * the exit status is reported truthfully: :attr:`IpoptDriver.status_message` is IPOPT's
   own, and the run counts as a success (``run()`` returns OpenMDAO's failure flag False,
-  ``run_driver()``'s ``DriverResult.success`` is True) only if IPOPT reports
-  ``Solve_Succeeded`` (0) or ``Solved_To_Acceptable_Level`` (1).
+  ``run_driver()``'s ``DriverResult.success`` is True) only if IPOPT reports one of
+  :data:`SUCCESS`.
 """
 
 from __future__ import annotations
@@ -103,6 +103,11 @@ IPOPT_STATUS = {
     -102: 'Insufficient_Memory',
     -199: 'Internal_Error',
 }
+#: the statuses of a solved problem: ``Solve_Succeeded``, ``Solved_To_Acceptable_Level``,
+#: and ``Feasible_Point_Found``, IPOPT's verdict on a square problem (no degrees of
+#: freedom: an evaluation, its design pinned) whose equations it solved, by way of its
+#: restoration phase
+SUCCESS = (0, 1, 6)
 _INF = 1e20  # IPOPT's default nlp_upper_bound_inf is 1e19; anything above means "none"
 
 
@@ -1046,7 +1051,7 @@ class IpoptDriver(Driver):
             except cyipopt.CyIpoptEvaluationError:
                 pass
             interrupts.stage('ipopt:end', status=self.status)
-        return self.status not in (0, 1)
+        return self.status not in SUCCESS
 
     def _callbacks(self) -> _Callbacks:
         return _CallbacksWithHessian(self) if self._exact else _Callbacks(self)

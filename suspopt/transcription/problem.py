@@ -34,7 +34,7 @@ import openmdao.api as om
 from dymos.utils.lgr import lgr
 
 import suspopt.transcription.coloring_cache as cache
-from suspopt.driver import IpoptDriver, IterationInfo
+from suspopt.driver import SUCCESS, IpoptDriver, IterationInfo
 from suspopt.errors import ModelError
 from suspopt.models.assembly import constraint_residual
 from suspopt.models.design import DESIGN_UNITS, design_kind
@@ -544,7 +544,7 @@ class VehicleProblem:
         drv.options['released'] = [] if optimize else self.engineering_constraints()
         p.run_driver()
         t3 = time.perf_counter()
-        success = drv.status in (0, 1)
+        success = drv.status in SUCCESS
         self.times['coloring_s'] = self.times.get('coloring_s', 0.0) + (t2 - t1)
         msg = drv.status_message
         if drv.last_error and not success:
