@@ -306,24 +306,40 @@ class RideFrequencyComp(_DesignComponent):
 
 
 # ---------------------------------------------------------------------------- closed loop
-def decay_rate(A: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """The decay rate of the slowest mode of ``x' = A x``, ``σ = -max Re λ(A)`` [1/s]
-    (positive: asymptotically stable), with the right and left eigenvectors ``x``, ``y``
-    of that eigenvalue (``A x = λ x``, ``yᴴ A = λ yᴴ``) for its derivative
-    ``dσ/dp = -Re(yᴴ (dA/dp) x / yᴴ x)`` (a simple eigenvalue's; Lancaster, *On
-    eigenvalues of matrices dependent on a parameter*, Numer. Math. 6, 1964)."""
+#: the smoothing of the slowest mode's real part [s]: the log-sum-exp of the real parts
+#: exceeds their maximum by at most ``log(n) / SMOOTHING``
+SMOOTHING = 10.0
+
+
+def decay_rate(A: np.ndarray, smoothing: float = SMOOTHING) -> tuple[float, np.ndarray]:
+    """The decay rate of the slowest mode of ``x' = A x``, smoothed: ``σ = -(1/β) log
+    Σ_i exp(β Re λ_i)`` [1/s] with ``β`` = ``smoothing``, at most ``-max Re λ`` (positive:
+    asymptotically stable), and its derivative with respect to ``A``'s entries,
+    ``dσ/dA``: each simple eigenvalue's ``dλ_i = y_iᴴ dA x_i / y_iᴴ x_i`` (Lancaster,
+    *On eigenvalues of matrices dependent on a parameter*, Numer. Math. 6, 1964) weighted
+    by its softmax share. Unlike the maximum it stays differentiable where two modes'
+    real parts cross (``docs/codesign.md``, "Unstable closed loops")."""
     import scipy.linalg
 
     w, vl, vr = scipy.linalg.eig(A, left=True, right=True)
-    k = int(np.argmax(w.real))
-    return float(-w[k].real), vr[:, k], vl[:, k]
+    re = w.real
+    top = re.max()
+    share = np.exp(smoothing * (re - top))
+    total = share.sum()
+    sigma = -(top + np.log(total) / smoothing)
+    share /= total
+    scale = np.einsum('ij,ij->j', np.conj(vl), vr)  # y_iᴴ x_i
+    # dRe λ_i / dA_kl = Re(conj(y_ki) x_li / y_iᴴ x_i); weighted by the shares
+    grad = -np.einsum('i,ki,li->kl', share / scale, np.conj(vl), vr).real
+    return float(sigma), grad
 
 
 class DecayRateComp(_DesignComponent):
-    """The decay rate of the slowest mode of the low-fidelity closed loop at the design
+    """The smoothed decay rate of the slowest mode of the closed loop at the design
     (:func:`decay_rate`): its state matrix affine in the design variables, ``A(p) = A0 +
-    Σ_i p_i A_i`` (:func:`suspopt.models.linear.affine_linearize`), read off the vehicle
-    assembly. Inputs: the design variables by name."""
+    Σ_i p_i A_i`` (:func:`suspopt.models.linear.affine_linearize`, or the mixed model's
+    :func:`~suspopt.models.linear.affine_rest_jacobian`). Inputs: the design variables by
+    name."""
 
     def initialize(self) -> None:
         self.options.declare('design', types=tuple, desc='design-variable names, in order')
@@ -347,7 +363,6 @@ class DecayRateComp(_DesignComponent):
         return {'decay': np.atleast_1d(decay_rate(self._A(inputs))[0])}
 
     def compute_partials(self, inputs, partials) -> None:
-        _, x, y = decay_rate(self._A(inputs))
-        scale = np.conj(y) @ x
+        grad = decay_rate(self._A(inputs))[1]
         for name, dA in zip(self.options['design'], self.options['dA']):
-            partials['decay', name] = -float((np.conj(y) @ dA @ x / scale).real)
+            partials['decay', name] = float(np.sum(grad * dA))

@@ -596,7 +596,7 @@ class StabilityConstraint:
     )
     margin: float = field(
         default=0.0,
-        metadata={'doc': 'least decay rate of the slowest mode, -max Re λ [1/s]'},
+        metadata={'doc': 'least decay rate of the slowest mode (smoothed -max Re λ) [1/s]'},
     )
 
 
