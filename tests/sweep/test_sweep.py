@@ -714,16 +714,24 @@ def test_another_command_on_a_live_sweeps_directory_is_refused(tmp_path, capsys)
     path = _files(tmp_path, CSV_SWEEP)
     out = tmp_path / 'out'
     done: dict = {}
-    runner = threading.Thread(
-        target=lambda: done.update(
-            outcome=run_sweep(path, out, workers=1, log=lambda m: None, task_fn=_wait_for_go)
-        )
-    )
+
+    def sweep() -> None:
+        try:
+            done['outcome'] = run_sweep(
+                path, out, workers=1, log=lambda m: None, task_fn=_wait_for_go
+            )
+        except BaseException as err:  # noqa: BLE001 - reported by the test below
+            done['error'] = err
+
+    runner = threading.Thread(target=sweep)
     runner.start()
     try:
         deadline = time.monotonic() + 60
         while not (out / 'sweep.json').exists() and time.monotonic() < deadline:
+            if 'error' in done:  # the sweep itself failed: say why, not a timeout
+                raise AssertionError(f'the sweep failed: {done["error"]!r}')
             time.sleep(0.02)
+        assert (out / 'sweep.json').exists(), 'the sweep did not start in 60 s'
         before = sorted(p.relative_to(out) for p in out.rglob('*'))
         t = time.perf_counter()
         code, err = _cli(
