@@ -118,29 +118,48 @@ def _settings(retries: int, worker_start: str) -> dict[str, Any]:
     }
 
 
-#: attempts at starting a local cluster: a nanny can fail to start on a loaded machine
-#: (seen in the suite beside another busy process), and a second attempt then succeeds
-CLUSTER_ATTEMPTS = 2
+def _start_methods(worker_start: str) -> tuple[str, ...]:
+    """How to start the workers, in the order tried: a nanny can fail to start (seen in
+    the suite beside busy processes, forking from a process that holds threads), and a
+    second attempt then succeeds; the second by ``spawn``, which inherits nothing."""
+    return (worker_start, 'spawn')
 
 
-def _local_cluster(local_cluster: Any, n: int, say: Callable[[str], None]) -> Any:
-    """A LocalCluster of ``n`` single-threaded worker processes, tried
-    :data:`CLUSTER_ATTEMPTS` times; a SuspoptError naming the last cause if none starts."""
-    for attempt in range(1, CLUSTER_ATTEMPTS + 1):
-        try:
-            return local_cluster(
-                n_workers=n,
-                processes=True,
-                threads_per_worker=1,
-                dashboard_address=None,
-                scheduler_kwargs=NO_DASHBOARD,
-                silence_logs=logging.CRITICAL,
-                preload=['suspopt.sweep'],
-            )
-        except Exception as err:  # noqa: BLE001 - e.g. no process could be spawned
-            if attempt == CLUSTER_ATTEMPTS:
-                raise SuspoptError(f'cannot start a local Dask cluster: {err}') from err
-            say(f'local cluster did not start ({err}); trying again')
+def _local_cluster(
+    local_cluster: Any,
+    n: int,
+    say: Callable[[str], None],
+    retries: int,
+    worker_start: str,
+) -> tuple[Any, str]:
+    """A LocalCluster of ``n`` single-threaded worker processes and how its workers were
+    started (:func:`_start_methods`, each tried once); a SuspoptError naming the last
+    cause if none starts."""
+    import dask
+
+    methods = _start_methods(worker_start)
+    for attempt, method in enumerate(methods, 1):
+        with dask.config.set(_settings(retries, method)):
+            if method == 'fork':  # the children's garbage collector leaves what this
+                gc.freeze()  # process had alone (no copy-on-write of its pages)
+            try:
+                cluster = local_cluster(
+                    n_workers=n,
+                    processes=True,
+                    threads_per_worker=1,
+                    dashboard_address=None,
+                    scheduler_kwargs=NO_DASHBOARD,
+                    silence_logs=logging.CRITICAL,
+                    preload=['suspopt.sweep'],
+                )
+                return cluster, method
+            except Exception as err:  # noqa: BLE001 - e.g. no process could be started
+                if attempt == len(methods):
+                    raise SuspoptError(f'cannot start a local Dask cluster: {err}') from err
+                say(f'local cluster did not start ({err}); trying again ({methods[attempt]})')
+            finally:
+                if method == 'fork':
+                    gc.unfreeze()
     raise AssertionError('unreachable')
 
 
@@ -161,16 +180,10 @@ def start_cluster(
     n = max(1, min(workers or len(os.sched_getaffinity(0)), n_tasks))
     if worker_start == 'fork':
         import suspopt.studies.run  # noqa: F401  (inherited by the forked workers)
-    with dask.config.set(_settings(retries, worker_start)):
-        if worker_start == 'fork':  # the children's garbage collector leaves what this
-            gc.freeze()  # process had alone (no copy-on-write of its pages)
-        try:
-            cluster = _local_cluster(LocalCluster, n, say)
-        finally:
-            if worker_start == 'fork':
-                gc.unfreeze()
+    cluster, method = _local_cluster(LocalCluster, n, say, retries, worker_start)
+    with dask.config.set(_settings(retries, method)):
         client = Client(cluster)
-    say(f'local cluster: {n} worker process(es), one thread each ({worker_start}ed)')
+    say(f'local cluster: {n} worker process(es), one thread each ({method}ed)')
     return client, cluster
 
 
