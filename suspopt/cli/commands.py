@@ -369,14 +369,7 @@ def robust(args: argparse.Namespace) -> int:
         printer.log('writing table and figure')
         render(out.path)
     _results(out.path, 'robust.json, table.md, figures/robustness.png', rec.wall_time_s)
-    failed = [k for k, r in rec.optima.items() if not r.success]
-    if failed:
-        _error(f'IPOPT did not converge for {", ".join(failed)}; the others are kept')
-        return FAILED
-    if rec.verified is False:
-        _error('some optimum is NOT verified by time marching (see table.md)')
-        return NOT_VERIFIED
-    return OK
+    return _optima_code(rec.optima, rec.verified)
 
 
 def codesign(args: argparse.Namespace) -> int:
@@ -405,11 +398,17 @@ def codesign(args: argparse.Namespace) -> int:
         printer.log('writing table and figure')
         render(out.path)
     _results(out.path, 'codesign.json, table.md, figures/codesign.png', rec.wall_time_s)
-    failed = [law for law, r in rec.entries.items() if not r.success]
+    return _optima_code(rec.entries, rec.verified)
+
+
+def _optima_code(optima: dict[str, SolveRecord], verified: bool | None) -> int:
+    """The exit code of a study of several optima (and its one line on stderr): any not
+    converged, then any NOT verified."""
+    failed = [k for k, r in optima.items() if not r.success]
     if failed:
         _error(f'IPOPT did not converge for {", ".join(failed)}; the others are kept')
         return FAILED
-    if rec.verified is False:
+    if verified is False:
         _error('some optimum is NOT verified by time marching (see table.md)')
         return NOT_VERIFIED
     return OK

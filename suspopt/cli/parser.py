@@ -171,30 +171,33 @@ def _compare(sub: Any) -> None:
     p.set_defaults(func=commands.compare)
 
 
-def _robust(sub: Any) -> None:
-    p = sub.add_parser(
-        'robust',
-        help="robust design over the study file's scenarios: the "
-        "robust optimum against each scenario's own",
-        epilog=EPILOG,
-    )
+def _optima_study(sub: Any, name: str, summary: str, func: Callable[..., int]) -> None:
+    """A study command of several optima in one model (``--fidelity``)."""
+    p = sub.add_parser(name, help=summary, epilog=EPILOG)
     p.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
     _common(p)
-    _run_options(p, 'results/robust')
-    p.set_defaults(func=commands.robust)
+    _run_options(p, f'results/{name}')
+    p.set_defaults(func=func)
+
+
+def _robust(sub: Any) -> None:
+    _optima_study(
+        sub,
+        'robust',
+        "robust design over the study file's scenarios: the robust optimum against each "
+        "scenario's own",
+        commands.robust,
+    )
 
 
 def _codesign(sub: Any) -> None:
-    p = sub.add_parser(
+    _optima_study(
+        sub,
         'codesign',
-        help="control co-design of the study file's [control]: the passive optimum, the "
+        "control co-design of the study file's [control]: the passive optimum, the "
         'open-loop bound and the feedback law, each verified',
-        epilog=EPILOG,
+        commands.codesign,
     )
-    p.add_argument('--fidelity', choices=('low', 'mixed'), default='low')
-    _common(p)
-    _run_options(p, 'results/codesign')
-    p.set_defaults(func=commands.codesign)
 
 
 def _sweep(sub: Any) -> None:
